@@ -1,0 +1,256 @@
+"""Cameras and projections, in OpenGL conventions.
+
+Right-handed eye space, the camera at the origin looking down -z with y up; the
+projection maps the view volume onto the canonical view volume `[-1, 1]^3` (NDC),
+the near plane to z = -1 and the far plane to z = +1. All matrices are 4x4 and act
+on column vectors (see `gfxlab.transforms`).
+
+Pixel coordinates follow the project convention (y up, the centre of pixel column x,
+row H-1-y at integer (x, y)); `ndc_to_pixels` maps NDC x, y onto them.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, Bool, Float
+
+from . import transforms as tf
+from ._checks import as_float, check_last_dim, common_float, safe_norm, static_shape, value_error_if
+
+__all__ = [
+    "look_at",
+    "orthographic",
+    "frustum",
+    "perspective",
+    "project",
+    "in_view_volume",
+    "ndc_to_pixels",
+    "plane_projection",
+    "orthographic_view",
+    "ORTHOGRAPHIC_VIEWS",
+    "Camera",
+]
+
+
+def _unit(v: jax.Array, name: str) -> jax.Array:
+    length = safe_norm(v, keepdims=True)
+    v = value_error_if(v, length == 0, f"{name} is zero: the camera frame is undefined")
+    return v / jnp.where(length == 0, 1.0, length)
+
+
+def look_at(
+    eye: Float[Array, "3"], target: Float[Array, "3"], up: Float[Array, "3"]
+) -> Float[Array, "4 4"]:
+    """The view matrix of a camera at `eye` looking at `target` (gluLookAt).
+
+    It sends `eye` to the origin and `target` onto the negative z axis, with `up`
+    projected to +y.
+
+    **Arguments:**
+
+    - `eye`, `target`, `up`: 3-vectors; `target != eye` and `up` not parallel to the
+      viewing direction.
+    """
+    eye, target, up = common_float(eye, target, up, names=("eye", "target", "up"))
+    for name, v in (("eye", eye), ("target", target), ("up", up)):
+        check_last_dim(v, name, (3,), "a 3D point or direction")
+    forward = _unit(target - eye, "`target - eye`")
+    right = _unit(jnp.cross(forward, up), "`up` x viewing direction (up is parallel to it)")
+    true_up = jnp.cross(right, forward)
+    rotation = jnp.stack([right, true_up, -forward], axis=-2)
+    offset = -jnp.einsum("...ij,...j->...i", rotation, eye)
+    return tf._embed(rotation, offset)
+
+
+def _check_range(lo, hi, name_lo, name_hi):
+    return value_error_if(lo, hi <= lo, f"`{name_hi}` must be greater than `{name_lo}`")
+
+
+def orthographic(left, right, bottom, top, near, far) -> Float[Array, "4 4"]:
+    """Orthographic projection of the box `[left, right] x [bottom, top] x [-far, -near]`
+    (eye space) onto the canonical view volume (glOrtho)."""
+    left, right, bottom, top, near, far = common_float(
+        left, right, bottom, top, near, far, names=("left", "right", "bottom", "top", "near", "far")
+    )
+    left = _check_range(left, right, "left", "right")
+    bottom = _check_range(bottom, top, "bottom", "top")
+    near = _check_range(near, far, "near", "far")
+    zero = jnp.zeros_like(left)
+    one = jnp.ones_like(left)
+    rows = [
+        [2 / (right - left), zero, zero, -(right + left) / (right - left)],
+        [zero, 2 / (top - bottom), zero, -(top + bottom) / (top - bottom)],
+        [zero, zero, -2 / (far - near), -(far + near) / (far - near)],
+        [zero, zero, zero, one],
+    ]
+    return jnp.stack([jnp.stack(r, -1) for r in rows], -2)
+
+
+def frustum(left, right, bottom, top, near, far) -> Float[Array, "4 4"]:
+    """Perspective projection of the truncated viewing pyramid whose near-plane window
+    is `[left, right] x [bottom, top]` at distance `near` (glFrustum).
+
+    `0 < near < far`.
+    """
+    left, right, bottom, top, near, far = common_float(
+        left, right, bottom, top, near, far, names=("left", "right", "bottom", "top", "near", "far")
+    )
+    left = _check_range(left, right, "left", "right")
+    bottom = _check_range(bottom, top, "bottom", "top")
+    near = value_error_if(near, near <= 0, "`near` must be positive for a perspective projection")
+    near = _check_range(near, far, "near", "far")
+    zero = jnp.zeros_like(left)
+    rows = [
+        [2 * near / (right - left), zero, (right + left) / (right - left), zero],
+        [zero, 2 * near / (top - bottom), (top + bottom) / (top - bottom), zero],
+        [zero, zero, -(far + near) / (far - near), -2 * far * near / (far - near)],
+        [zero, zero, -jnp.ones_like(left), zero],
+    ]
+    return jnp.stack([jnp.stack(r, -1) for r in rows], -2)
+
+
+def perspective(fov_y, aspect, near, far) -> Float[Array, "4 4"]:
+    """Symmetric perspective projection (gluPerspective).
+
+    **Arguments:**
+
+    - `fov_y`: vertical field of view in radians, in (0, pi).
+    - `aspect`: width / height, > 0.
+    - `near`, `far`: distances to the clipping planes, `0 < near < far`.
+    """
+    fov_y, aspect, near, far = common_float(fov_y, aspect, near, far, names=("fov_y", "aspect", "near", "far"))
+    fov_y = value_error_if(
+        fov_y, (fov_y <= 0) | (fov_y >= jnp.pi), "`fov_y` must be in (0, pi) radians"
+    )
+    aspect = value_error_if(aspect, aspect <= 0, "`aspect` must be positive")
+    top = near * jnp.tan(fov_y / 2)
+    right = top * aspect
+    return frustum(-right, right, -top, top, near, far)
+
+
+def project(matrix: Float[Array, "4 4"], points: Float[Array, "*batch N 3"]) -> Float[Array, "*batch N 3"]:
+    """Project 3D points to normalised device coordinates (with the perspective divide)."""
+    return tf.apply(matrix, points)
+
+
+def in_view_volume(ndc_points: Float[Array, "*batch 3"], *, tolerance: float = 0.0) -> Bool[Array, "*batch"]:
+    """Whether NDC points lie inside the canonical view volume `[-1, 1]^3`."""
+    ndc_points = as_float(ndc_points, "ndc_points")
+    check_last_dim(ndc_points, "ndc_points", (3,), "NDC points")
+    return jnp.all(jnp.abs(ndc_points) <= 1 + tolerance, axis=-1)
+
+
+def ndc_to_pixels(ndc_points: Float[Array, "*batch d"], shape: tuple[int, int]) -> Float[Array, "*batch 2"]:
+    """Map NDC x, y in [-1, 1] to pixel coordinates of an image of `shape = (H, W)`.
+
+    NDC -1 is the outer edge of the first pixel and +1 the outer edge of the last, so
+    pixel centres sit at integers 0..W-1 (x) and 0..H-1 (y, up).
+    """
+    height, width = static_shape(shape)
+    ndc_points = as_float(ndc_points, "ndc_points")
+    check_last_dim(ndc_points, "ndc_points", (2, 3, 4), "NDC points")
+    size = jnp.array([width, height], ndc_points.dtype)
+    return (ndc_points[..., :2] + 1) / 2 * size - 0.5
+
+
+_AXIS_INDEX = {"x": 0, "y": 1, "z": 2}
+
+
+def plane_projection(axis: str) -> Float[Array, "4 4"]:
+    """The seed's orthographic projection matrix that zeroes one coordinate.
+
+    `plane_projection("z")` is the seed's `[T_z]` (projection onto the plane z = 0,
+    the front view), `"y"` gives `[T_y]` (top view, onto y = 0) and `"x"` gives
+    `[T_x]` (side view, onto x = 0).
+    """
+    if axis not in _AXIS_INDEX:
+        raise ValueError(f"`axis` must be 'x', 'y' or 'z', got {axis!r}")
+    return jnp.diag(jnp.ones(4).at[_AXIS_INDEX[axis]].set(0.0))
+
+
+# name: (direction from the object to the centre of projection, up on the drawing)
+ORTHOGRAPHIC_VIEWS: dict[str, tuple[tuple[float, float, float], tuple[float, float, float]]] = {
+    "front": ((0, 0, 1), (0, 1, 0)),
+    "rear": ((0, 0, -1), (0, 1, 0)),
+    "right": ((1, 0, 0), (0, 1, 0)),
+    "left": ((-1, 0, 0), (0, 1, 0)),
+    "top": ((0, 1, 0), (0, 0, -1)),
+    "bottom": ((0, -1, 0), (0, 0, 1)),
+}
+
+
+def orthographic_view(name: str) -> Float[Array, "4 4"]:
+    """One of the six orthographic views of the seed's table, as a 4x4 matrix.
+
+    The result maps a point to its drawing coordinates `(u, v, 0)`: `u` to the right
+    and `v` up as seen from the centre of projection (e.g. the front view keeps x, y;
+    the rear view mirrors x; the top view has u = x and v = -z). It is the seed's
+    zeroing matrix applied after turning the object to face the viewer.
+
+    **Arguments:**
+
+    - `name`: one of `"front"`, `"rear"`, `"right"`, `"left"`, `"top"`, `"bottom"`.
+    """
+    if name not in ORTHOGRAPHIC_VIEWS:
+        raise ValueError(f"`name` must be one of {sorted(ORTHOGRAPHIC_VIEWS)}, got {name!r}")
+    toward_viewer, up = ORTHOGRAPHIC_VIEWS[name]
+    view = look_at(jnp.array(toward_viewer, float), jnp.zeros(3), jnp.array(up, float))
+    return plane_projection("z") @ view
+
+
+class Camera(eqx.Module):
+    """A pinhole camera: pose (`eye`, `target`, `up`) and a perspective lens.
+
+    A pytree, so `gfxlab.fit` can fit any of its fields (all are traced arrays).
+
+    **Fields:**
+
+    - `eye`, `target`, `up`: 3-vectors (world space).
+    - `fov_y`: vertical field of view, radians.
+    - `aspect`: width / height.
+    - `near`, `far`: clipping distances.
+    """
+
+    eye: Float[Array, "3"]
+    target: Float[Array, "3"]
+    up: Float[Array, "3"]
+    fov_y: Float[Array, ""]
+    aspect: Float[Array, ""]
+    near: Float[Array, ""]
+    far: Float[Array, ""]
+
+    def __init__(self, eye, target=(0.0, 0.0, 0.0), up=(0.0, 1.0, 0.0), *, fov_y=jnp.pi / 4,
+                 aspect=1.0, near=0.1, far=100.0):
+        self.eye, self.target, self.up = (
+            as_float(eye, "eye"), as_float(target, "target"), as_float(up, "up")
+        )
+        for name in ("eye", "target", "up"):
+            check_last_dim(getattr(self, name), name, (3,), "a 3-vector")
+        self.fov_y, self.aspect = as_float(fov_y, "fov_y"), as_float(aspect, "aspect")
+        self.near, self.far = as_float(near, "near"), as_float(far, "far")
+
+    def view_matrix(self) -> Float[Array, "4 4"]:
+        """World to eye space (`look_at`)."""
+        return look_at(self.eye, self.target, self.up)
+
+    def projection_matrix(self) -> Float[Array, "4 4"]:
+        """Eye space to clip space (`perspective`)."""
+        return perspective(self.fov_y, self.aspect, self.near, self.far)
+
+    def matrix(self) -> Float[Array, "4 4"]:
+        """World to clip space: projection after view."""
+        return tf.compose(self.view_matrix(), self.projection_matrix())
+
+    def project(self, points: Float[Array, "*batch N 3"]) -> Float[Array, "*batch N 3"]:
+        """World points to NDC."""
+        return project(self.matrix(), points)
+
+    def to_pixels(self, points: Float[Array, "*batch N 3"], shape: tuple[int, int]) -> Float[Array, "*batch N 2"]:
+        """World points to pixel coordinates of an image of `shape` (y up)."""
+        return ndc_to_pixels(self.project(points), shape)
+
+    def depth(self, points: Float[Array, "*batch N 3"]) -> Float[Array, "*batch N"]:
+        """Distance in front of the camera along the viewing axis (eye-space -z)."""
+        return -tf.apply(self.view_matrix(), points)[..., 2]

@@ -1,0 +1,28 @@
+"""Shared test setup: float64 everywhere, hypothesis profile, jit/no-jit fixture."""
+
+import os
+
+import jax
+import pytest
+from hypothesis import HealthCheck, settings
+
+jax.config.update("jax_enable_x64", True)
+
+# CI runs on 2 cores: keep property sweeps modest there; `HYPOTHESIS_PROFILE=thorough`
+# for more.
+settings.register_profile(
+    "ci", max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
+settings.register_profile("thorough", max_examples=1000, deadline=None)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+
+@pytest.fixture(params=[False, True], ids=["eager", "jit"])
+def maybe_jit(request):
+    """Run a test body both unjitted and under `jax.jit` (dm-pix style).
+
+    Use as `maybe_jit(fn, static_argnames=...)(args...)`.
+    """
+    if request.param:
+        return jax.jit
+    return lambda fn, **_: fn
