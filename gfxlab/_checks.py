@@ -83,8 +83,10 @@ def static_int(value, name: str, *, minimum: int | None = None) -> int:
     if isinstance(value, bool) or not isinstance(value, int | np.integer):
         if isinstance(value, float | np.floating) and float(value).is_integer():
             value = int(value)
-        elif isinstance(value, np.ndarray | jax.Array) and value.shape == () and jnp.issubdtype(
-            value.dtype, jnp.integer
+        elif (
+            isinstance(value, np.ndarray | jax.Array)
+            and value.shape == ()
+            and jnp.issubdtype(value.dtype, jnp.integer)
         ):
             value = int(value)
         else:
@@ -99,7 +101,9 @@ def static_shape(shape, name: str = "shape") -> tuple[int, int]:
     """An image shape `(H, W)` (extra trailing entries such as channels are ignored)."""
     if not isinstance(shape, Sequence) or len(shape) < 2:
         raise ValueError(f"`{name}` must be an image shape (H, W), got {shape!r}")
-    return static_int(shape[0], f"{name}[0]", minimum=1), static_int(shape[1], f"{name}[1]", minimum=1)
+    return static_int(shape[0], f"{name}[0]", minimum=1), static_int(
+        shape[1], f"{name}[1]", minimum=1
+    )
 
 
 def value_error_if(x, bad, message: str):

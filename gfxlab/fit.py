@@ -126,11 +126,13 @@ class _Progress:
 def _prepare(fn, params, args, method):
     if isinstance(method, str):
         if method not in METHODS:
-            raise FitError(f"`method` must be one of {sorted(METHODS)} (or an optimistix solver or "
-                           f"optax transformation), got {method!r}")
+            raise FitError(
+                f"`method` must be one of {sorted(METHODS)} (or an optimistix solver or "
+                f"optax transformation), got {method!r}"
+            )
+    # Python floats are parameters too; ints, bools and strings stay fixed.
     params = jax.tree_util.tree_map(
-        lambda x: jnp.asarray(x, dtype=jnp.result_type(x, float))
-        if eqx.is_array_like(x) and not isinstance(x, bool) else x,
+        lambda x: jnp.asarray(x, dtype=jnp.result_type(float)) if isinstance(x, float) else x,
         params,
     )
     dynamic, static = eqx.partition(params, eqx.is_inexact_array)
@@ -152,7 +154,10 @@ def fit(
     params: PyTree,
     *,
     args: tuple = (),
-    method: str | optx.AbstractLeastSquaresSolver | optx.AbstractMinimiser | optax.GradientTransformation = "levenberg_marquardt",
+    method: str
+    | optx.AbstractLeastSquaresSolver
+    | optx.AbstractMinimiser
+    | optax.GradientTransformation = "levenberg_marquardt",
     max_steps: int = 100,
     learning_rate: float = 1e-2,
     rtol: float = 1e-8,
@@ -223,8 +228,9 @@ def fit(
                 "(an array or pytree of arrays), not a scalar loss; use 'bfgs' or 'adam' "
                 "for a scalar objective"
             )
-        run, state = _optimistix_runner(objective, loss_of, solver, dynamic, args, out_struct,
-                                        is_least_squares, scalar)
+        run, state = _optimistix_runner(
+            objective, loss_of, solver, dynamic, args, out_struct, is_least_squares, scalar
+        )
         solver_done = True
 
     history = [initial_loss[None]]
@@ -284,15 +290,21 @@ def _optimistix_solver(method, rtol, atol):
     return optx.BFGS(rtol=rtol, atol=atol)
 
 
-def _optimistix_runner(objective, loss_of, solver, dynamic, args, out_struct, least_squares, scalar):
+def _optimistix_runner(
+    objective, loss_of, solver, dynamic, args, out_struct, least_squares, scalar
+):
     if least_squares:
+
         def fn(y, fn_args):
             return objective(y, fn_args), None
+
         f_struct = out_struct
     else:
+
         def fn(y, fn_args):
             out = objective(y, fn_args)
             return (out if scalar else _loss_from_output(out)), None
+
         f_struct = jax.ShapeDtypeStruct((), jnp.result_type(*jax.tree_util.tree_leaves(out_struct)))
     options: dict[str, Any] = {}
     tags = frozenset()

@@ -66,9 +66,7 @@ def _embed(linear_part: jax.Array, offset: jax.Array | None = None) -> jax.Array
     linear_part = jnp.broadcast_to(linear_part, batch + (d, d))
     offset = jnp.broadcast_to(offset, batch + (d,)).astype(linear_part.dtype)
     top = jnp.concatenate([linear_part, offset[..., :, None]], axis=-1)
-    bottom = jnp.broadcast_to(
-        jnp.eye(1, d + 1, d, dtype=linear_part.dtype), batch + (1, d + 1)
-    )
+    bottom = jnp.broadcast_to(jnp.eye(1, d + 1, d, dtype=linear_part.dtype), batch + (1, d + 1))
     return jnp.concatenate([top, bottom], axis=-2)
 
 
@@ -150,7 +148,9 @@ def rotate_axis(axis: Float[Array, "*batch 3"], angle: Float[Array, "*batch"]) -
     return _embed(c * jnp.eye(3, dtype=k.dtype) + s * cross + (1 - c) * outer)
 
 
-def scale(factors: Float[Array, "*batch d"], *, center: Float[Array, "*batch d"] | None = None) -> Matrix:
+def scale(
+    factors: Float[Array, "*batch d"], *, center: Float[Array, "*batch d"] | None = None
+) -> Matrix:
     """Scaling by `factors` about the origin, or about the fixed point `center`.
 
     About a fixed point this is `T(center) @ S(factors) @ T(-center)`, i.e.
@@ -222,7 +222,9 @@ def linear(matrix: Float[Array, "*batch d d"]) -> Matrix:
     return _embed(matrix)
 
 
-def reflect(normal: Float[Array, "*batch d"], *, point: Float[Array, "*batch d"] | None = None) -> Matrix:
+def reflect(
+    normal: Float[Array, "*batch d"], *, point: Float[Array, "*batch d"] | None = None
+) -> Matrix:
     """Reflection about the line (2D) or plane (3D) with the given `normal`.
 
     The mirror passes through `point` (default the origin). For example
@@ -312,7 +314,9 @@ def apply(matrix: Matrix, points: Float[Array, "*batch N d"]) -> Float[Array, "*
     return out[..., 0, :] if single else out
 
 
-def window_to_viewport(window: Float[Array, "4"], viewport: Float[Array, "4"]) -> Float[Array, "3 3"]:
+def window_to_viewport(
+    window: Float[Array, "4"], viewport: Float[Array, "4"]
+) -> Float[Array, "3 3"]:
     """The 2D window-to-viewport (workstation) transform (the seed's Q2a).
 
     Translate the window's lower-left corner to the origin, scale by

@@ -120,7 +120,9 @@ def perspective(fov_y, aspect, near, far) -> Float[Array, "4 4"]:
     - `aspect`: width / height, > 0.
     - `near`, `far`: distances to the clipping planes, `0 < near < far`.
     """
-    fov_y, aspect, near, far = common_float(fov_y, aspect, near, far, names=("fov_y", "aspect", "near", "far"))
+    fov_y, aspect, near, far = common_float(
+        fov_y, aspect, near, far, names=("fov_y", "aspect", "near", "far")
+    )
     fov_y = value_error_if(
         fov_y, (fov_y <= 0) | (fov_y >= jnp.pi), "`fov_y` must be in (0, pi) radians"
     )
@@ -130,19 +132,25 @@ def perspective(fov_y, aspect, near, far) -> Float[Array, "4 4"]:
     return frustum(-right, right, -top, top, near, far)
 
 
-def project(matrix: Float[Array, "4 4"], points: Float[Array, "*batch N 3"]) -> Float[Array, "*batch N 3"]:
+def project(
+    matrix: Float[Array, "4 4"], points: Float[Array, "*batch N 3"]
+) -> Float[Array, "*batch N 3"]:
     """Project 3D points to normalised device coordinates (with the perspective divide)."""
     return tf.apply(matrix, points)
 
 
-def in_view_volume(ndc_points: Float[Array, "*batch 3"], *, tolerance: float = 0.0) -> Bool[Array, "*batch"]:
+def in_view_volume(
+    ndc_points: Float[Array, "*batch 3"], *, tolerance: float = 0.0
+) -> Bool[Array, "*batch"]:
     """Whether NDC points lie inside the canonical view volume `[-1, 1]^3`."""
     ndc_points = as_float(ndc_points, "ndc_points")
     check_last_dim(ndc_points, "ndc_points", (3,), "NDC points")
     return jnp.all(jnp.abs(ndc_points) <= 1 + tolerance, axis=-1)
 
 
-def ndc_to_pixels(ndc_points: Float[Array, "*batch d"], shape: tuple[int, int]) -> Float[Array, "*batch 2"]:
+def ndc_to_pixels(
+    ndc_points: Float[Array, "*batch d"], shape: tuple[int, int]
+) -> Float[Array, "*batch 2"]:
     """Map NDC x, y in [-1, 1] to pixel coordinates of an image of `shape = (H, W)`.
 
     NDC -1 is the outer edge of the first pixel and +1 the outer edge of the last, so
@@ -221,10 +229,21 @@ class Camera(eqx.Module):
     near: Float[Array, ""]
     far: Float[Array, ""]
 
-    def __init__(self, eye, target=(0.0, 0.0, 0.0), up=(0.0, 1.0, 0.0), *, fov_y=jnp.pi / 4,
-                 aspect=1.0, near=0.1, far=100.0):
+    def __init__(
+        self,
+        eye,
+        target=(0.0, 0.0, 0.0),
+        up=(0.0, 1.0, 0.0),
+        *,
+        fov_y=jnp.pi / 4,
+        aspect=1.0,
+        near=0.1,
+        far=100.0,
+    ):
         self.eye, self.target, self.up = (
-            as_float(eye, "eye"), as_float(target, "target"), as_float(up, "up")
+            as_float(eye, "eye"),
+            as_float(target, "target"),
+            as_float(up, "up"),
         )
         for name in ("eye", "target", "up"):
             check_last_dim(getattr(self, name), name, (3,), "a 3-vector")
@@ -247,7 +266,9 @@ class Camera(eqx.Module):
         """World points to NDC."""
         return project(self.matrix(), points)
 
-    def to_pixels(self, points: Float[Array, "*batch N 3"], shape: tuple[int, int]) -> Float[Array, "*batch N 2"]:
+    def to_pixels(
+        self, points: Float[Array, "*batch N 3"], shape: tuple[int, int]
+    ) -> Float[Array, "*batch N 2"]:
         """World points to pixel coordinates of an image of `shape` (y up)."""
         return ndc_to_pixels(self.project(points), shape)
 
