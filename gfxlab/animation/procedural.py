@@ -1,0 +1,422 @@
+"""Procedural animation: motion from rules instead of key frames.
+
+A particle system (emitter, gravity, drag, collisions with planes), damped springs and
+mass-spring chains integrated with a fixed time step under `lax.scan`, and smooth
+value/gradient noise for secondary motion (wobble, breathing, camera shake).
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, Bool, Float, Int
+
+from .._checks import (
+    as_float,
+    check_last_dim,
+    check_shape,
+    common_float,
+    safe_norm,
+    static_int,
+    value_error_if,
+)
+
+__all__ = [
+    "Particles",
+    "emit",
+    "simulate_particles",
+    "damped_spring",
+    "chain_springs",
+    "simulate_springs",
+    "value_noise",
+    "gradient_noise",
+    "fractal_noise",
+]
+
+
+class Particles(eqx.Module):
+    """A particle system's state: `(N, d)` positions and velocities, `(N,)` birth times.
+
+    A particle is alive (moves) once the simulation time reaches its birth time; before
+    that it waits at its start position.
+    """
+
+    position: Float[Array, "N d"]
+    velocity: Float[Array, "N d"]
+    birth: Float[Array, " N"]
+
+
+def emit(
+    key: Array,
+    count: int,
+    *,
+    origin: Float[Array, " d"],
+    direction: Float[Array, " d"],
+    speed: float = 1.0,
+    spread: float = 0.3,
+    speed_jitter: float = 0.1,
+    rate: float | None = None,
+) -> Particles:
+    """A point emitter: `count` particles leaving `origin` around `direction`.
+
+    **Arguments:**
+
+    - `key`: a `jax.random` key.
+    - `count`: number of particles (static).
+    - `origin`: `(d,)` emitter position (d = 2 or 3).
+    - `direction`: `(d,)` mean launch direction (normalised).
+    - `speed`: mean launch speed; `speed_jitter` its relative random spread.
+    - `spread`: standard deviation of the launch direction (radians-like, added to
+      the unit direction before renormalising).
+    - `rate`: particles per second (births spread evenly); `None` emits all at `t = 0`.
+
+    **Returns:** `Particles`.
+    """
+    count = static_int(count, "count", minimum=1)
+    origin, direction = common_float(origin, direction, names=("origin", "direction"))
+    d = check_last_dim(origin, "origin", (2, 3), "a 2D or 3D point")
+    check_shape(direction, "direction", (d,))
+    k1, k2 = jax.random.split(key)
+    unit = direction / safe_norm(direction)
+    dirs = unit + spread * jax.random.normal(k1, (count, d), origin.dtype)
+    dirs = dirs / safe_norm(dirs, keepdims=True)
+    speeds = speed * (1 + speed_jitter * jax.random.normal(k2, (count, 1), origin.dtype))
+    birth = jnp.zeros((count,), origin.dtype)
+    if rate is not None:
+        birth = jnp.arange(count, dtype=origin.dtype) / rate
+    position = jnp.broadcast_to(origin, (count, d))
+    return Particles(position, dirs * speeds, birth)
+
+
+def _planes(planes, d, dtype):
+    if planes is None:
+        return jnp.zeros((0, d), dtype), jnp.zeros((0,), dtype)
+    normals, offsets = planes
+    normals, offsets = common_float(normals, offsets, names=("planes normals", "planes offsets"))
+    normals = jnp.atleast_2d(normals).astype(dtype)
+    offsets = jnp.atleast_1d(offsets).astype(dtype)
+    check_shape(normals, "planes normals", (None, d))
+    check_shape(offsets, "planes offsets", (normals.shape[0],))
+    normals = normals / safe_norm(normals, keepdims=True)
+    return normals, offsets
+
+
+def simulate_particles(
+    particles: Particles,
+    *,
+    steps: int,
+    dt: float,
+    gravity: Float[Array, " d"] | None = None,
+    drag: float = 0.0,
+    planes: tuple[Float[Array, "P d"], Float[Array, " P"]] | None = None,
+    restitution: float = 0.8,
+    friction: float = 0.0,
+) -> tuple[Float[Array, "steps+1 N d"], Float[Array, "steps+1 N d"]]:
+    """Run a particle system for `steps` fixed steps of `dt` under `lax.scan`.
+
+    Each step (semi-implicit Euler): `v += dt (g - drag v)`, `p += dt v`; then every
+    particle below a plane `n . p = c` is reflected back above it, its normal velocity
+    reversed and scaled by `restitution` and its tangential velocity by `1 - friction`.
+    Unborn particles (birth time later than the step's time) stay put.
+
+    **Arguments:**
+
+    - `particles`: the start state (`emit`, or your own `Particles`).
+    - `steps`: number of steps (static); `dt`: step size in seconds.
+    - `gravity`: `(d,)` acceleration, default `(0, -9.81)` / `(0, -9.81, 0)` (y up).
+    - `drag`: linear air drag coefficient (1/s).
+    - `planes`: `(normals (P, d), offsets (P,))`: solid half-spaces `n . p < c` that
+      particles bounce off; `None` for none.
+    - `restitution`: fraction of normal speed kept in a bounce (0 dead, 1 elastic).
+    - `friction`: fraction of tangential speed lost in a bounce.
+
+    **Returns:** `(positions, velocities)`, each `(steps + 1, N, d)` including the start.
+    """
+    steps = static_int(steps, "steps", minimum=1)
+    position = as_float(particles.position, "particles.position")
+    d = check_last_dim(position, "particles.position", (2, 3), "2D or 3D points")
+    velocity = as_float(particles.velocity, "particles.velocity").astype(position.dtype)
+    check_shape(velocity, "particles.velocity", position.shape)
+    birth = as_float(particles.birth, "particles.birth").astype(position.dtype)
+    check_shape(birth, "particles.birth", position.shape[:1])
+    dt = as_float(dt, "dt").astype(position.dtype)
+    dt = value_error_if(dt, dt <= 0, "`dt` must be positive")
+    if gravity is None:
+        gravity = jnp.zeros((d,), position.dtype).at[1].set(-9.81)
+    gravity = as_float(gravity, "gravity").astype(position.dtype)
+    check_shape(gravity, "gravity", (d,))
+    normals, offsets = _planes(planes, d, position.dtype)
+
+    def step(state, k):
+        p, v = state
+        alive = ((k + 1) * dt >= birth)[:, None]
+        v_new = v + dt * (gravity - drag * v)
+        p_new = p + dt * v_new
+        for n, c in zip(normals, offsets, strict=True):
+            depth = p_new @ n - c  # < 0: inside the solid
+            hit = (depth < 0)[:, None]
+            vn = (v_new @ n)[:, None] * n
+            vt = v_new - vn
+            # Only a particle moving into the plane bounces (normal speed reversed).
+            into = (v_new @ n < 0)[:, None]
+            bounced_v = jnp.where(into, -restitution * vn, vn) + (1 - friction) * vt
+            p_new = jnp.where(hit, p_new - (1 + restitution) * depth[:, None] * n, p_new)
+            v_new = jnp.where(hit, bounced_v, v_new)
+        p_new = jnp.where(alive, p_new, p)
+        v_new = jnp.where(alive, v_new, v)
+        return (p_new, v_new), (p_new, v_new)
+
+    _, (ps, vs) = jax.lax.scan(step, (position, velocity), jnp.arange(steps))
+    return jnp.concatenate([position[None], ps]), jnp.concatenate([velocity[None], vs])
+
+
+def damped_spring(
+    x0: Float[Array, "*batch"],
+    v0: Float[Array, "*batch"],
+    target: Float[Array, "*T *batch"],
+    *,
+    stiffness: float,
+    damping: float,
+    dt: float,
+    steps: int | None = None,
+) -> Float[Array, " T *batch"]:
+    """A damped spring following a target: `x'' = k (target - x) - c x'` (unit mass).
+
+    Integrated by semi-implicit Euler under `lax.scan`. A constant `target` gives the
+    classic overshoot-and-settle of follow-through; a time series `target` (one value per
+    step, leading axis) makes `x` lag and wobble behind it (secondary motion).
+
+    **Arguments:**
+
+    - `x0`, `v0`: start position and velocity (any shape).
+    - `target`: `(T, ...)` one target per step, or one target of `x0`'s shape with
+      `steps` given.
+    - `stiffness` (k, 1/s^2), `damping` (c, 1/s), `dt` (s).
+    - `steps`: number of steps when `target` is constant.
+
+    **Returns:** `(T, ...)` positions after each step.
+    """
+    x0, v0, target = common_float(x0, v0, target, names=("x0", "v0", "target"))
+    if steps is not None:
+        steps = static_int(steps, "steps", minimum=1)
+        target = jnp.broadcast_to(target, (steps,) + jnp.broadcast_shapes(x0.shape, target.shape))
+    elif target.ndim == 0 or target.shape[1:] != jnp.broadcast_shapes(x0.shape, target.shape[1:]):
+        raise ValueError("`target` must be (T, *x0.shape) or give `steps` for a constant target")
+    dt = value_error_if(as_float(dt, "dt"), as_float(dt, "dt") <= 0, "`dt` must be positive")
+
+    def step(state, goal):
+        x, v = state
+        v = v + dt * (stiffness * (goal - x) - damping * v)
+        x = x + dt * v
+        return (x, v), x
+
+    state = (jnp.broadcast_to(x0, target.shape[1:]), jnp.broadcast_to(v0, target.shape[1:]))
+    _, xs = jax.lax.scan(step, state, target)
+    return xs
+
+
+def chain_springs(count: int) -> Int[Array, "E 2"]:
+    """Edges `(i, i+1)` of a chain of `count` masses (a rope, a tail, an antenna)."""
+    count = static_int(count, "count", minimum=2)
+    i = jnp.arange(count - 1)
+    return jnp.stack([i, i + 1], axis=-1)
+
+
+def simulate_springs(
+    position: Float[Array, "N d"],
+    velocity: Float[Array, "N d"],
+    springs: Int[Array, "E 2"],
+    *,
+    steps: int,
+    dt: float,
+    stiffness: float | Float[Array, " E"] = 100.0,
+    damping: float = 0.5,
+    rest_length: Float[Array, " E"] | None = None,
+    mass: float | Float[Array, " N"] = 1.0,
+    gravity: Float[Array, " d"] | None = None,
+    pinned: Bool[Array, " N"] | None = None,
+    anchor: Float[Array, "steps N d"] | None = None,
+    integrator: str = "semi_implicit_euler",
+) -> Float[Array, "steps+1 N d"]:
+    """A mass-spring system (Hooke springs, velocity damping) under `lax.scan`.
+
+    **Arguments:**
+
+    - `position`, `velocity`: `(N, d)` start state.
+    - `springs`: `(E, 2)` integer pairs of connected masses (`chain_springs(n)`).
+    - `steps` (static), `dt`: fixed time stepping.
+    - `stiffness`: spring constant(s) k; `damping`: velocity damping coefficient (1/s);
+      `rest_length`: `(E,)`, default the start lengths; `mass`: scalar or `(N,)`.
+    - `gravity`: `(d,)` acceleration (default none).
+    - `pinned`: `(N,)` masses that do not integrate: they stay put, or follow `anchor`.
+    - `anchor`: `(steps, N, d)` prescribed positions used for the pinned masses at each
+      step (e.g. the root of a tail following a character).
+    - `integrator`: `"semi_implicit_euler"` (`v += dt a; x += dt v`) or `"verlet"`
+      (position Verlet `x' = 2x - x_prev + dt^2 a`, velocity from the difference).
+
+    **Returns:** `(steps + 1, N, d)` positions including the start.
+    """
+    if integrator not in ("semi_implicit_euler", "verlet"):
+        raise ValueError("`integrator` must be 'semi_implicit_euler' or 'verlet', got "
+                         f"{integrator!r}")
+    steps = static_int(steps, "steps", minimum=1)
+    position, velocity = common_float(position, velocity, names=("position", "velocity"))
+    n, d = position.shape[0], check_last_dim(position, "position", (1, 2, 3))
+    check_shape(velocity, "velocity", position.shape)
+    springs = jnp.asarray(springs)
+    if springs.ndim != 2 or springs.shape[1] != 2 or not jnp.issubdtype(springs.dtype,
+                                                                         jnp.integer):
+        raise ValueError(f"`springs` must be integer pairs (E, 2), got {springs.shape} "
+                         f"{springs.dtype}")
+    springs = value_error_if(springs, jnp.any((springs < 0) | (springs >= n)),
+                             f"`springs` indices must lie in [0, {n})")
+    a_idx, b_idx = springs[:, 0], springs[:, 1]
+    if rest_length is None:
+        rest_length = safe_norm(position[b_idx] - position[a_idx])
+    rest_length = as_float(rest_length, "rest_length").astype(position.dtype)
+    mass = jnp.broadcast_to(as_float(mass, "mass").astype(position.dtype), (n,))
+    mass = value_error_if(mass, mass <= 0, "`mass` must be positive")
+    dt = value_error_if(as_float(dt, "dt"), as_float(dt, "dt") <= 0, "`dt` must be positive")
+    g = jnp.zeros((d,), position.dtype) if gravity is None else as_float(gravity, "gravity")
+    free = jnp.ones((n, 1), bool) if pinned is None else ~jnp.asarray(pinned, bool)[:, None]
+    if anchor is None:
+        anchor = jnp.broadcast_to(position, (steps, n, d))
+    anchor = as_float(anchor, "anchor").astype(position.dtype)
+    check_shape(anchor, "anchor", (steps, n, d))
+
+    def accel(x, v):
+        delta = x[b_idx] - x[a_idx]
+        length = safe_norm(delta, keepdims=True)
+        direction = delta / jnp.where(length > 0, length, 1.0)
+        f = (stiffness * (length[:, 0] - rest_length))[:, None] * direction
+        force = jnp.zeros_like(x).at[a_idx].add(f).at[b_idx].add(-f)
+        return force / mass[:, None] + g - damping * v
+
+    def euler(state, goal):
+        x, v = state
+        v_new = v + dt * accel(x, v)
+        x_new = jnp.where(free, x + dt * v_new, goal)
+        v_new = jnp.where(free, v_new, (goal - x) / dt)
+        return (x_new, v_new), x_new
+
+    def verlet(state, goal):
+        x, x_prev = state
+        v = (x - x_prev) / dt
+        x_new = jnp.where(free, 2 * x - x_prev + dt * dt * accel(x, v), goal)
+        return (x_new, x), x_new
+
+    if integrator == "verlet":
+        start = (position, position - dt * velocity)
+        _, xs = jax.lax.scan(verlet, start, anchor)
+    else:
+        _, xs = jax.lax.scan(euler, (position, velocity), anchor)
+    return jnp.concatenate([position[None], xs])
+
+
+# ---------------------------------------------------------------- noise
+
+def _hash(ints: jax.Array, seed: int) -> jax.Array:
+    """A 32-bit integer hash of lattice coordinates `(..., k)` -> uniform floats in [0, 1)."""
+    h = jnp.full(ints.shape[:-1], (seed * 0x9E3779B9 + 0x85EBCA6B) & 0xFFFFFFFF, jnp.uint32)
+    primes = (0x8DA6B343, 0xD8163841, 0xCB1AB31F)
+    for j in range(ints.shape[-1]):
+        h = h ^ (ints[..., j].astype(jnp.uint32) * jnp.uint32(primes[j]))
+        h = (h ^ (h >> 16)) * jnp.uint32(0x7FEB352D)
+        h = (h ^ (h >> 15)) * jnp.uint32(0x846CA68B)
+        h = h ^ (h >> 16)
+    return (h >> 8).astype(jnp.float32) / float(1 << 24)
+
+
+def _fade(t):
+    # Quintic fade 6t^5 - 15t^4 + 10t^3: C2 across lattice cells.
+    return t * t * t * (t * (6 * t - 15) + 10)
+
+
+def _noise_points(x, name):
+    x = as_float(x, name)
+    if x.ndim == 0:
+        raise ValueError(f"`{name}` must be (..., 1) or (..., 2) positions")
+    check_last_dim(x, name, (1, 2), "1D or 2D noise positions")
+    return x
+
+
+def _corners(dim):
+    return jnp.array([[(c >> j) & 1 for j in range(dim)] for c in range(2**dim)])
+
+
+def _lattice_blend(x, corner_value):
+    # Blend corner contributions of the cell containing x with the fade weights.
+    cell = jnp.floor(jax.lax.stop_gradient(x))
+    f = x - cell
+    w = _fade(f)
+    corners = _corners(x.shape[-1])
+    total = 0.0
+    for c in corners:
+        weight = jnp.prod(jnp.where(c == 1, w, 1 - w), axis=-1)
+        total = total + weight * corner_value(cell.astype(jnp.int32) + c, f - c)
+    return total
+
+
+def value_noise(x: Float[Array, "*batch dim"], *, seed: int = 0) -> Float[Array, "*batch"]:
+    """Value noise in 1D or 2D: random values on the integer lattice, blended smoothly.
+
+    **Arguments:**
+
+    - `x`: `(..., 1)` or `(..., 2)` positions (use `t[..., None]` for a time signal).
+    - `seed`: a Python int choosing the random lattice.
+
+    **Returns:** values in `[-1, 1]`, shape `x.shape[:-1]`; equal to the lattice value at
+    integer points, C2 smooth in between.
+    """
+    x = _noise_points(x, "x")
+    seed = static_int(seed, "seed")
+    return _lattice_blend(x, lambda ij, _: 2 * _hash(ij, seed).astype(x.dtype) - 1)
+
+
+def gradient_noise(x: Float[Array, "*batch dim"], *, seed: int = 0) -> Float[Array, "*batch"]:
+    """Gradient (Perlin-style) noise in 1D or 2D.
+
+    Each lattice point holds a random unit gradient; the noise is the faded blend of the
+    linear ramps `g . (x - corner)`, so it is zero at every lattice point and has no
+    visible lattice-scale bumps.
+
+    **Arguments:** as `value_noise`. **Returns:** values roughly in `[-1, 1]`.
+    """
+    x = _noise_points(x, "x")
+    seed = static_int(seed, "seed")
+    dim = x.shape[-1]
+
+    def ramp(ij, offset):
+        angle = 2 * jnp.pi * _hash(ij, seed).astype(x.dtype)
+        if dim == 1:
+            grad = (2 * _hash(ij, seed + 1).astype(x.dtype) - 1)[..., None]
+            return 2 * jnp.sum(grad * offset, axis=-1)
+        grad = jnp.stack([jnp.cos(angle), jnp.sin(angle)], axis=-1)
+        return jnp.sqrt(2.0) * jnp.sum(grad * offset, axis=-1)
+
+    return _lattice_blend(x, ramp)
+
+
+def fractal_noise(
+    x: Float[Array, "*batch dim"],
+    *,
+    octaves: int = 4,
+    lacunarity: float = 2.0,
+    gain: float = 0.5,
+    kind: str = "gradient",
+    seed: int = 0,
+) -> Float[Array, "*batch"]:
+    """Sum of `octaves` noise layers, each `lacunarity` times finer and `gain` times weaker
+    (fractional Brownian motion), normalised to the range of one layer."""
+    octaves = static_int(octaves, "octaves", minimum=1)
+    if kind not in ("gradient", "value"):
+        raise ValueError(f"`kind` must be 'gradient' or 'value', got {kind!r}")
+    noise = gradient_noise if kind == "gradient" else value_noise
+    x = _noise_points(x, "x")
+    total, amplitude, norm = 0.0, 1.0, 0.0
+    for o in range(octaves):
+        total = total + amplitude * noise(x * lacunarity**o, seed=seed + 7919 * o)
+        norm += amplitude
+        amplitude *= gain
+    return total / norm

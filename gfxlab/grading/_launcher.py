@@ -1,0 +1,69 @@
+"""First stage of the student process (standard library only, run as `python -I -S -c`).
+
+Runs with the grader's privileges, inside fresh namespaces when `unshare` is available,
+and narrows everything before it becomes the student worker with `execve`:
+
+1. In a private mount namespace: hides directories (the autograder, the submissions)
+   under empty read-only tmpfs mounts, and re-exposes the Python installation when it
+   sits under a directory an unprivileged user cannot enter (such as `/root`).
+2. Sets resource limits (CPU, address space, file size, processes, open files, core).
+3. Drops to an unprivileged uid/gid with no supplementary groups.
+4. `execve`s the worker with a minimal environment.
+
+Its single argument is a JSON object written by `gfxlab.grading.sandbox`.
+"""
+
+import ctypes
+import json
+import os
+import resource
+import sys
+
+MS_RDONLY, MS_NOSUID, MS_NODEV, MS_BIND, MS_REC, MS_PRIVATE = 1, 2, 4, 4096, 16384, 1 << 18
+
+
+def _mount(source, target, fstype, flags, data=None):
+    libc = ctypes.CDLL(None, use_errno=True)
+    as_bytes = lambda s: None if s is None else s.encode()
+    if libc.mount(as_bytes(source), as_bytes(target), as_bytes(fstype), flags, as_bytes(data)):
+        errno = ctypes.get_errno()
+        raise OSError(errno, os.strerror(errno), target)
+
+
+def _expose(blocker, paths):
+    """Make `paths` reachable although their ancestor `blocker` is closed to other users.
+
+    Everything else under `blocker` disappears behind an empty tmpfs.
+    """
+    handles = [os.open(path, os.O_PATH) for path in paths]
+    _mount("tmpfs", blocker, "tmpfs", MS_NOSUID | MS_NODEV, "mode=0755,size=64k")
+    for path, handle in zip(paths, handles, strict=True):
+        os.makedirs(path, mode=0o755, exist_ok=True)
+        _mount(f"/proc/self/fd/{handle}", path, None, MS_BIND | MS_REC)
+        os.close(handle)
+
+
+def main():
+    config = json.loads(sys.argv[1])
+    if config["mount_namespace"]:
+        _mount(None, "/", None, MS_REC | MS_PRIVATE)
+        for blocker, paths in config["expose"]:
+            _expose(blocker, paths)
+        for path in config["hide"]:
+            if os.path.isdir(path):
+                _mount("tmpfs", path, "tmpfs", MS_RDONLY | MS_NOSUID | MS_NODEV, "mode=0,size=4k")
+    for name, value in config["rlimits"].items():
+        limit = getattr(resource, name)
+        resource.setrlimit(limit, (value, value))
+    os.chdir(config["workdir"])
+    if config["uid"] is not None:
+        os.setgroups([])
+        os.setgid(config["gid"])
+        os.setuid(config["uid"])
+    os.umask(0o077)
+    argv = config["argv"]
+    os.execve(argv[0], argv, config["env"])
+
+
+if __name__ == "__main__":
+    main()

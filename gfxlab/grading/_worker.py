@@ -1,0 +1,168 @@
+"""The student process: runs the student's cells and answers calls to their functions.
+
+Started by the sandbox as `python -I -c <codec.py + this file> REQ_FD REP_FD`, with the
+student's code as its only input. It reads framed requests from REQ_FD and writes framed
+replies to REP_FD; stdout and stderr go to a size-capped file the grader never parses.
+The fixed menu of operations is `exec` (run one cell), `names` (which names are
+functions) and `call` (call a function, optionally through `jax.jit`, `jax.grad`,
+`jax.value_and_grad` or `jax.vmap`). No code comes from the grader: only cell sources
+(the student's own), function names, operation names and plain data.
+"""
+
+import builtins
+import os
+import signal
+import struct
+import sys
+import traceback
+
+if "encode" not in globals():  # imported as a module (linting, tests), not run as the worker
+    from gfxlab.grading.codec import decode, dumps, encode, loads
+
+TRANSFORMS = ("jit", "grad", "value_and_grad", "vmap")
+
+
+def _read_exact(fd, n):
+    chunks, missing = [], n
+    while missing:
+        chunk = os.read(fd, missing)
+        if not chunk:
+            return None
+        chunks.append(chunk)
+        missing -= len(chunk)
+    return b"".join(chunks)
+
+
+def _write_all(fd, data):
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view) :]
+
+
+def _plain(value):
+    """jax arrays -> numpy, recursively through exact lists, tuples and dicts."""
+    kind = type(value)
+    if kind in (list, tuple):
+        return kind(_plain(v) for v in value)
+    if kind is dict:
+        return {k: _plain(v) for k, v in value.items()}
+    jax = sys.modules.get("jax")
+    if jax is not None and isinstance(value, jax.Array) and not isinstance(value, jax.core.Tracer):
+        import numpy
+
+        return numpy.asarray(value)
+    return value
+
+
+def _student_function(namespace, name):
+    if name not in namespace:
+        raise NameError(f"`{name}` is not defined in the notebook")
+    fn = namespace[name]
+    if not callable(fn):
+        raise TypeError(f"`{name}` should be a function, got {type(fn).__name__}")
+    return fn
+
+
+def _transformed(fn, transforms):
+    for op, options in transforms:
+        if op not in TRANSFORMS or type(options) is not dict:
+            raise ValueError(f"unknown transform {op!r}")
+        import jax
+
+        fn = getattr(jax, op)(fn, **options)
+    return fn
+
+
+def _options(raw):
+    """Transform options: only a few plain keywords, ints or tuples of ints."""
+    allowed = {"argnums", "static_argnums", "static_argnames", "in_axes", "has_aux"}
+    out = {}
+    for key, value in raw.items():
+        if key not in allowed:
+            raise ValueError(f"transform option {key!r} is not allowed")
+        out[key] = value
+    return out
+
+
+def _handle(request, namespace, cache):
+    op = request["op"]
+    if op == "exec":
+        code = compile(request["source"], f"<cell {request['cell']}>", "exec")
+        try:
+            exec(code, namespace)
+        finally:
+            for stream in (sys.stdout, sys.stderr):
+                try:
+                    stream.flush()
+                except Exception:
+                    pass
+        return None
+    if op == "names":
+        return [callable(namespace.get(name)) for name in decode(request["names"])]
+    if op == "call":
+        name = request["name"]
+        transforms = tuple(
+            (op_, tuple(sorted(_options(opts).items())))
+            for op_, opts in decode(request["transforms"])
+        )
+        key = (name, id(namespace.get(name)), transforms)
+        if key not in cache:
+            fn = _student_function(namespace, name)
+            cache[key] = _transformed(fn, [(op_, dict(opts)) for op_, opts in transforms])
+        args = decode(request["args"])
+        kwargs = decode(request["kwargs"])
+        return _plain(cache[key](*args, **kwargs))
+    raise ValueError(f"unknown operation {op!r}")
+
+
+def _describe(exc):
+    """`Type: message` plus the student's own frames, short."""
+    frames = [
+        f"  {f.filename}, line {f.lineno}, in {f.name}"
+        for f in traceback.extract_tb(exc.__traceback__)
+        if f.filename.startswith("<cell")
+    ]
+    text = f"{type(exc).__name__}: {exc}"
+    if frames:
+        text += "\n" + "\n".join(frames[-6:])
+    return text[:4000]
+
+
+def serve(req_fd, rep_fd):
+    pid = os.getpid()
+    namespace = {"__name__": "__main__", "__builtins__": builtins}
+    cache = {}
+    while True:
+        header = _read_exact(req_fd, 4)
+        if os.getpid() != pid:  # a child the student forked must not answer requests
+            os._exit(0)
+        if header is None:
+            return
+        (size,) = struct.unpack(">I", header)
+        request = loads(_read_exact(req_fd, size) or b"")
+        try:
+            reply = {"id": request["id"], "ok": True}
+            reply["value"] = encode(_handle(request, namespace, cache))
+        except BaseException as exc:  # SystemExit and KeyboardInterrupt too: report, go on
+            if os.getpid() != pid:
+                os._exit(0)
+            reply = {"id": request["id"], "ok": False, "error": _describe(exc)}
+        if os.getpid() != pid:
+            os._exit(0)
+        _write_all(rep_fd, dumps(reply))
+
+
+def main():
+    req_fd, rep_fd = int(sys.argv[1]), int(sys.argv[2])
+    preload = [m for m in sys.argv[3].split(",") if m]
+    # Past the output cap a write fails with an error instead of killing the process.
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    sys.argv = ["student"]
+    for module in preload:
+        __import__(module)
+    _write_all(rep_fd, dumps({"id": "ready", "ok": True, "value": encode(os.getuid())}))
+    serve(req_fd, rep_fd)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,132 @@
+"""`compress`: a differentiable JPEG round trip whose forward pass is libjpeg's.
+
+The value is computed by the bit-exact integer pipeline (`_libjpeg.forward` then
+`_libjpeg.inverse`, in `jax.numpy`, jittable): exactly what Pillow gives for
+`Image.open(save(image, quality=round(q)))`. Gradients come from a floating-point
+twin of the same pipeline (`gfxlab.jpeg.stages`) whose rounding is straight-through
+or cubic and whose quantization tables are a smooth function of `quality`; the two
+are joined as `twin + stop_gradient(exact - twin)`.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+from gfxlab._checks import as_float
+from gfxlab.jpeg import _libjpeg as L
+from gfxlab.jpeg import stages as S
+from gfxlab.jpeg._tables import CHROMINANCE_TABLE, LUMINANCE_TABLE, SUBSAMPLING
+
+__all__ = ["compress", "exact_tables"]
+
+
+def exact_tables(quality) -> tuple[Array, Array]:
+    """IJG integer tables for a (possibly traced) quality, rounded to 1..100."""
+    q = jnp.clip(jnp.round(jnp.asarray(quality)), 1, 100).astype(jnp.int32)
+    scale = jnp.where(q < 50, 5000 // q, 200 - 2 * q)
+    return tuple(
+        jnp.clip((jnp.asarray(t, jnp.int32) * scale + 50) // 100, 1, 255)
+        for t in (LUMINANCE_TABLE, CHROMINANCE_TABLE)
+    )
+
+
+def _exact(image, quality, factors):
+    u8 = jnp.clip(jnp.round(jax.lax.stop_gradient(image) * 255.0), 0, 255).astype(jnp.int32)
+    luma, chroma = exact_tables(jax.lax.stop_gradient(quality))
+    height, width = image.shape[:2]
+    if image.ndim == 2:
+        planes, tables = [u8], [luma]
+    else:
+        planes, tables = list(L.rgb_to_ycc(u8, jnp)), [luma, chroma, chroma]
+    coefs = L.forward(planes, factors, tables, jnp, traced_tables=True)
+    planes = L.inverse(coefs, factors, tables, height, width, jnp)
+    if image.ndim == 2:
+        return planes[0].astype(image.dtype) / 255.0
+    return L.ycc_to_rgb(*planes, jnp).astype(image.dtype) / 255.0
+
+
+def _twin(image, quality, factors, rounding):
+    luma, chroma = S.quant_tables_continuous(quality)
+    height, width = image.shape[:2]
+    hmax = max(f[0] for f in factors)
+    vmax = max(f[1] for f in factors)
+    if image.ndim == 2:
+        planes, tables = [image * 255.0], [luma]
+    else:
+        ycc = S.rgb_to_ycbcr(image) * 255.0
+        planes, tables = [ycc[..., i] for i in range(3)], [luma, chroma, chroma]
+    out = []
+    for plane, table, (h, v) in zip(planes, tables, factors, strict=True):
+        name = {(1, 1): "4:4:4", (2, 1): "4:2:2", (2, 2): "4:2:0"}[(hmax // h, vmax // v)]
+        small = S.subsample(plane, subsampling=name)
+        coefs = S.dct2(S.level_shift(S.blocks(small)))
+        rec = S.idct2(S.dequantize(S.quantize(coefs, table.astype(coefs.dtype), rounding=rounding), table))
+        rec = S.unblocks(S.level_shift(rec, inverse=True), small.shape)
+        out.append(S.upsample(rec, (height, width), subsampling=name))
+    if image.ndim == 2:
+        return out[0] / 255.0
+    return S.ycbcr_to_rgb(jnp.stack(out, axis=-1) / 255.0)
+
+
+def compress(
+    image: Float[Array, "H W *channels"],
+    *,
+    quality,
+    subsampling: str = "4:2:0",
+    rounding: str = "ste",
+) -> Float[Array, "H W *channels"]:
+    """Differentiable JPEG round trip (encode then decode).
+
+    Forward: exactly libjpeg-turbo's result (what Pillow returns after saving with
+    `quality=round(quality)` and reading back), pixels in [0, 1]. Backward: a float
+    twin of the pipeline with `rounding`:
+
+    - `"ste"`: straight-through rounding (`d round(x)/dx = 1`);
+    - `"cubic"`: soft rounding `round(x) + (x - round(x))**3`.
+
+    `quality` is continuous: the twin's tables follow IJG's scale curve smoothly, so
+    `d image / d quality` is finite on all of [1, 100].
+
+    **Arguments:**
+
+    - `image`: `(H, W, 3)` RGB or `(H, W)` grey, float in [0, 1].
+    - `quality`: scalar in [1, 100] (may be traced).
+    - `subsampling`: `"4:4:4"`, `"4:2:2"` or `"4:2:0"` (ignored for grey).
+    - `rounding`: `"ste"` or `"cubic"`.
+
+    **Returns:**
+
+    The decoded image, same shape and dtype as `image`.
+    """
+    image = as_float(image, "image")
+    if image.ndim == 3 and image.shape[-1] == 1:
+        return compress(image[..., 0], quality=quality, subsampling=subsampling, rounding=rounding)[
+            ..., None
+        ]
+    if image.ndim not in (2, 3) or (image.ndim == 3 and image.shape[-1] != 3):
+        raise ValueError(f"`image` must have shape (H, W) or (H, W, 3), got {image.shape}")
+    if subsampling not in SUBSAMPLING:
+        raise ValueError(
+            f"`subsampling` must be one of {sorted(SUBSAMPLING)}, got {subsampling!r}"
+        )
+    if rounding not in ("ste", "cubic"):
+        raise ValueError(f"`rounding` must be 'ste' or 'cubic', got {rounding!r}")
+    quality = as_float(quality, "quality")
+    if quality.ndim != 0:
+        raise ValueError(f"`quality` must be a scalar, got shape {quality.shape}")
+    quality = quality.astype(image.dtype)
+    factors = [(1, 1)] if image.ndim == 2 else [SUBSAMPLING[subsampling], (1, 1), (1, 1)]
+    twin = _twin(image, quality, factors, rounding)
+    return twin + jax.lax.stop_gradient(_exact(image, quality, factors) - twin)
+
+
+def psnr(a, b, *, peak: float = 1.0) -> Array:
+    """Peak signal-to-noise ratio in dB (inf for identical images)."""
+    mse = jnp.mean((jnp.asarray(a, float) - jnp.asarray(b, float)) ** 2)
+    return 10 * jnp.log10(peak**2 / mse)
+
+
+

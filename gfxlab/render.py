@@ -1,0 +1,867 @@
+"""Rendering triangle scenes: soft rasterization and hidden-surface removal.
+
+**Soft rasterization** (SoftRas, Liu et al. 2019). Each face `j` gives every pixel a
+probability `D_j = sigmoid(sign * d^2 / sigma)`, where `d` is the distance from the pixel
+centre to the projected triangle and `sign` is +1 inside, -1 outside. The silhouette is
+`A = 1 - prod_j (1 - D_j)`; the colour is a softmax over faces weighted by `D_j` and by
+their normalised inverse depth `z_j` with temperature `gamma`, plus a background term:
+
+    w_j = D_j exp(z_j / gamma) / (sum_k D_k exp(z_k / gamma) + exp(eps_bg / gamma)).
+
+`sigma` is in pixels^2 and all distances are in pixels (the project's pixel convention:
+y up, pixel centres on integers), so the look does not change with resolution. A face
+whose probability at a pixel is below `eps` is dropped there; this makes each face's
+reach finite (a margin of `sqrt(sigma * log(1 / eps - 1))` pixels), so the image is cut
+into tiles and each tile only sees the faces binned into it, at most `capacity` of them.
+Cost and memory grow with `pixels x capacity`, not `pixels x faces`.
+
+**Hidden-surface removal** on screen-space triangle scenes `(F, 3, 3)` (pixel x, pixel
+y, depth; smaller depth is nearer, depth affine across each triangle such as NDC z):
+`zbuffer`, `painter` (depth sort), `warnock` (area subdivision) and `scanline`. A pixel
+is covered by a triangle when its centre lies inside or on the triangle; all four
+methods pick the nearest covering triangle (ties: the lower index) unless the scene
+has cyclic overlaps, where `painter` fails.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Bool, Float, Int
+
+from ._checks import as_float, check_shape, common_float, static_int, static_shape, value_error_if
+from .mesh import Mesh, face_normals
+from .viewing import Camera, ndc_to_pixels
+
+__all__ = [
+    "soft_silhouette",
+    "soft_rasterize",
+    "screen_scene",
+    "VisibilityResult",
+    "zbuffer",
+    "painter",
+    "warnock",
+    "scanline",
+    "quadtree_cells",
+    "WARNOCK_CODES",
+]
+
+
+# ---------------------------------------------------------------------------------------
+# Per pixel-face geometry
+
+
+def _cross(u, v):
+    return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+
+def _pixel_face_terms(points, tri):
+    """Squared distance, inside flag and clamped barycentrics of pixels vs triangles.
+
+    `points (P, 2)`, `tri (K, 3, 2)` -> `d2 (P, K)`, `inside (P, K)`, `bary (P, K, 3)`.
+    Degenerate triangles are never inside; every value and gradient stays finite.
+    Written per coordinate (no trailing axes of size 2 or 3), which XLA runs faster.
+    """
+    px, py = points[:, 0:1], points[:, 1:2]  # (P, 1)
+    cx = [tri[None, :, k, 0] for k in range(3)]  # (1, K) each
+    cy = [tri[None, :, k, 1] for k in range(3)]
+    d2 = None
+    edge_fn = []
+    for k in range(3):
+        ex, ey = cx[(k + 1) % 3] - cx[k], cy[(k + 1) % 3] - cy[k]
+        rx, ry = px - cx[k], py - cy[k]
+        length2 = ex * ex + ey * ey
+        nonzero = length2 > 0
+        t = jnp.where(nonzero, (rx * ex + ry * ey) / jnp.where(nonzero, length2, 1.0), 0.0)
+        t = jnp.clip(t, 0.0, 1.0)
+        ox, oy = rx - t * ex, ry - t * ey
+        dk = ox * ox + oy * oy
+        d2 = dk if d2 is None else jnp.minimum(d2, dk)
+        edge_fn.append(ex * ry - ey * rx)  # twice the signed area opposite corner k + 2
+    area2 = (cx[1] - cx[0]) * (cy[2] - cy[0]) - (cy[1] - cy[0]) * (cx[2] - cx[0])
+    proper = area2 != 0
+    sign = jnp.sign(area2)
+    inside = proper & (edge_fn[0] * sign >= 0) & (edge_fn[1] * sign >= 0) & (
+        edge_fn[2] * sign >= 0
+    )
+    safe = jnp.where(proper, area2, 1.0)
+    bary = [jnp.clip(edge_fn[(k + 1) % 3] / safe, 0.0, 1.0) for k in range(3)]
+    total = jnp.maximum(bary[0] + bary[1] + bary[2], 1e-12)
+    bary = jnp.stack([jnp.where(proper, b / total, 1.0 / 3) for b in bary], -1)
+    return d2, inside, bary
+
+
+def _logit_limit(eps):
+    return math.log(1.0 / eps - 1.0)
+
+
+def _silhouette_pixels(points, tri, slot_mask, sigma, eps):
+    d2, inside, _ = _pixel_face_terms(points, tri)
+    keep = slot_mask[None] & (inside | (d2 <= sigma * _logit_limit(eps)))
+    x = jnp.where(inside, d2, -d2) / sigma
+    log_miss = jnp.sum(jnp.where(keep, jax.nn.log_sigmoid(-x), 0.0), axis=-1)
+    return -jnp.expm1(log_miss)
+
+
+def _color_pixels(points, faces, slot_mask, params):
+    tri, inv_depth, colors = faces  # (K,3,2), (K,3), (K,3,C)
+    sigma, gamma, eps, near, far, background, eps_bg = params
+    d2, inside, bary = _pixel_face_terms(points, tri)
+    keep = slot_mask[None] & (inside | (d2 <= sigma * _logit_limit(eps)))
+    x = jnp.where(inside, d2, -d2) / sigma
+    alpha = -jnp.expm1(jnp.sum(jnp.where(keep, jax.nn.log_sigmoid(-x), 0.0), axis=-1))
+    # perspective-correct depth: inverse depth is affine in screen space
+    inv = jnp.sum(bary * inv_depth[None], -1)
+    depth = 1.0 / jnp.where(keep, inv, 1.0)
+    z = (far - depth) / (far - near)
+    logits = jnp.where(keep, jax.nn.log_sigmoid(x) + z / gamma, -jnp.inf)
+    logits = jnp.concatenate([logits, jnp.broadcast_to(eps_bg / gamma, (logits.shape[0], 1))], 1)
+    weights = jax.nn.softmax(logits, axis=-1)
+    color = jnp.einsum("pk,pkc->pc", weights[:, :-1], jnp.einsum("pkv,kvc->pkc", bary, colors))
+    color = color + weights[:, -1:] * background
+    out_depth = jnp.sum(weights[:, :-1] * depth, -1) + weights[:, -1] * far
+    return jnp.concatenate([color, alpha[:, None], out_depth[:, None]], axis=-1)
+
+
+# ---------------------------------------------------------------------------------------
+# Tiles and bins
+
+
+def _tiled(pixel_fn, tri, valid, faces, shape, *, margin, tile_size, capacity, tiles_per_step,
+           binned=True):
+    """Evaluate `pixel_fn(points, faces_subset, slot_mask)` over the image, tile by tile.
+
+    Returns `(image (H, W, ...), max_faces_in_a_tile)`.
+    """
+    height, width = shape
+    t = tile_size
+    rows, cols = -(-height // t), -(-width // t)
+    origins = jnp.stack(
+        jnp.meshgrid(jnp.arange(rows) * t, jnp.arange(cols) * t, indexing="ij"), -1
+    ).reshape(-1, 2)
+    box = jax.lax.stop_gradient(
+        jnp.concatenate([jnp.min(tri, 1) - margin, jnp.max(tri, 1) + margin], -1)
+    )  # (F, 4) xmin, ymin, xmax, ymax
+    offsets = jnp.arange(t)
+    local = jnp.stack(jnp.meshgrid(offsets, offsets, indexing="ij"), -1).reshape(-1, 2)
+
+    @jax.checkpoint
+    def shade(origin, ids, slot_mask, faces):
+        rc = origin + local
+        points = jnp.stack([rc[:, 1], height - 1 - rc[:, 0]], -1).astype(tri.dtype)
+        subset = jax.tree_util.tree_map(lambda a: a[ids], faces)
+        return pixel_fn(points, subset, slot_mask)
+
+    def one_tile(origin):
+        row0, col0 = origin[0], origin[1]
+        x_lo, x_hi = col0, col0 + t - 1
+        y_lo, y_hi = height - 1 - (row0 + t - 1), height - 1 - row0
+        if binned:
+            overlap = valid & (box[:, 0] <= x_hi) & (box[:, 2] >= x_lo) & (box[:, 1] <= y_hi) & (
+                box[:, 3] >= y_lo
+            )
+            count = jnp.sum(overlap, dtype=jnp.int32)
+            (ids,) = jnp.nonzero(overlap, size=capacity, fill_value=0)
+            slot_mask = jnp.arange(capacity) < count
+        else:
+            ids = jnp.arange(tri.shape[0])
+            slot_mask = valid
+            count = jnp.sum(valid, dtype=jnp.int32)
+        return shade(origin, ids, slot_mask, faces), count
+
+    # pad the tile list to whole steps (one compiled body, no remainder pass)
+    batch = min(tiles_per_step, len(origins))
+    steps = -(-len(origins) // batch)
+    padded = jnp.concatenate([origins, jnp.repeat(origins[-1:], steps * batch - len(origins), 0)])
+    tiles, counts = jax.lax.map(jax.vmap(one_tile), padded.reshape(steps, batch, 2))
+    tiles = tiles.reshape((steps * batch,) + tiles.shape[2:])[: len(origins)]
+    image = tiles.reshape(rows, cols, t, t, -1).transpose(0, 2, 1, 3, 4)
+    image = image.reshape(rows * t, cols * t, -1)[:height, :width]
+    return image, jnp.max(counts)
+
+
+def _check_capacity(image, max_count, capacity, tile_size):
+    message = (
+        f"a {tile_size}x{tile_size} tile overlaps more faces than `capacity` = {capacity}; "
+        "raise `capacity` (or lower `tile_size` or `sigma`)"
+    )
+    if not isinstance(max_count, jax.core.Tracer) and int(max_count) > capacity:
+        message = message.replace("more faces", f"{int(max_count)} faces, more")
+    return value_error_if(image, max_count > capacity, message)
+
+
+def _check_options(sigma, eps, tile_size, capacity, tiles_per_step):
+    sigma = value_error_if(sigma, ~(sigma > 0), "`sigma` must be > 0 (in pixels^2)")
+    if not isinstance(eps, float | int) or not 0 < eps < 0.5:
+        raise ValueError(f"`eps` must be a Python float in (0, 0.5), got {eps!r}")
+    tile_size = static_int(tile_size, "tile_size", minimum=1)
+    capacity = static_int(capacity, "capacity", minimum=1)
+    tiles_per_step = static_int(tiles_per_step, "tiles_per_step", minimum=1)
+    return sigma, tile_size, capacity, tiles_per_step
+
+
+def _check_faces(faces, num_vertices, name="faces"):
+    faces = jnp.asarray(faces)
+    if not jnp.issubdtype(faces.dtype, jnp.integer):
+        raise TypeError(f"`{name}` must hold integer vertex indices, got dtype {faces.dtype}")
+    check_shape(faces, name, (None, 3))
+    return value_error_if(
+        faces, (faces < 0) | (faces >= num_vertices),
+        f"`{name}` must index the {num_vertices} vertices (0 <= index < {num_vertices})",
+    )
+
+
+# ---------------------------------------------------------------------------------------
+# Soft rasterizer
+
+
+def soft_silhouette(
+    vertices_2d: Float[Array, "V 2"],
+    faces: Int[Array, "F 3"],
+    shape: tuple[int, int],
+    *,
+    sigma: float | Float[Array, ""],
+    eps: float = 1e-4,
+    tile_size: int = 16,
+    capacity: int = 256,
+    tiles_per_step: int = 16,
+) -> Float[Array, "H W"]:
+    """The soft silhouette `A = 1 - prod_j (1 - D_j)` of 2D triangles.
+
+    **Arguments:**
+
+    - `vertices_2d`: `(V, 2)` vertex positions in pixel coordinates (y up, pixel centres
+      on integers, see `gfxlab.raster`).
+    - `faces`: `(F, 3)` integer vertex indices.
+    - `shape`: image shape `(H, W)` (static).
+    - `sigma`: sharpness in pixels^2 (> 0); small is sharp.
+    - `eps`: probability below which a face is dropped at a pixel (sets the bin margin).
+    - `tile_size`, `capacity`: tiles of `tile_size^2` pixels see at most `capacity`
+      faces each; more raises a `ValueError` asking to raise `capacity`.
+    - `tiles_per_step`: tiles evaluated together (memory vs. speed).
+
+    **Returns:** `(H, W)` coverage in [0, 1].
+    """
+    height, width = static_shape(shape)
+    vertices_2d = as_float(vertices_2d, "vertices_2d")
+    check_shape(vertices_2d, "vertices_2d", (None, 2))
+    faces = _check_faces(faces, vertices_2d.shape[0])
+    sigma = jnp.asarray(sigma, vertices_2d.dtype)
+    sigma, tile_size, capacity, tiles_per_step = _check_options(
+        sigma, eps, tile_size, capacity, tiles_per_step
+    )
+    image, max_count = _silhouette_core(
+        vertices_2d, faces, sigma, shape=(height, width), eps=float(eps), tile_size=tile_size,
+        capacity=capacity, tiles_per_step=tiles_per_step,
+    )
+    return _check_capacity(image, max_count, capacity, tile_size)
+
+
+@functools.partial(jax.jit, static_argnames=("shape", "eps", "tile_size", "capacity",
+                                             "tiles_per_step", "binned"))
+def _silhouette_core(vertices_2d, faces, sigma, *, shape, eps, tile_size, capacity,
+                     tiles_per_step, binned=True):
+    tri = vertices_2d[faces]
+    valid = jnp.all(jnp.isfinite(tri), axis=(1, 2))
+    tri = jnp.where(valid[:, None, None], tri, 0.0)
+    margin = jnp.sqrt(sigma * _logit_limit(eps))
+    image, max_count = _tiled(
+        lambda pts, sub, mask: _silhouette_pixels(pts, sub, mask, sigma, eps)[:, None],
+        tri, valid, tri, shape, margin=margin, tile_size=tile_size,
+        capacity=capacity, tiles_per_step=tiles_per_step, binned=binned,
+    )
+    return image[..., 0], max_count
+
+
+def _project_mesh(mesh: Mesh, camera: Camera, shape, light, ambient):
+    if not isinstance(mesh, Mesh):
+        raise TypeError(f"`mesh` must be a gfxlab.mesh.Mesh, got {type(mesh).__name__}")
+    if not isinstance(camera, Camera):
+        raise TypeError(f"`camera` must be a gfxlab.viewing.Camera, got {type(camera).__name__}")
+    vertices = mesh.vertices
+    homogeneous = jnp.concatenate([vertices, jnp.ones_like(vertices[:, :1])], -1)
+    clip = homogeneous @ camera.matrix().T.astype(vertices.dtype)
+    w = clip[:, 3]  # eye-space depth
+    in_front = w >= camera.near
+    w_safe = jnp.where(in_front, w, 1.0)
+    pixels = ndc_to_pixels(clip[:, :2] / w_safe[:, None], shape)
+    faces = mesh.faces
+    valid = jnp.all(in_front[faces], axis=-1)  # faces crossing the near plane are culled
+    colors = mesh.colors if mesh.colors is not None else jnp.ones_like(vertices)
+    corner_colors = colors[faces]
+    if light is not None:
+        light = as_float(light, "light").astype(vertices.dtype)
+        check_shape(light, "light", (3,))
+        direction = light / jnp.sqrt(jnp.sum(light * light))
+        lambert = jnp.abs(face_normals(vertices, faces) @ direction)  # two-sided
+        corner_colors = corner_colors * (ambient + (1 - ambient) * lambert)[:, None, None]
+    return pixels[faces], 1.0 / w_safe[faces], corner_colors, valid
+
+
+def soft_rasterize(
+    mesh: Mesh,
+    camera: Camera,
+    shape: tuple[int, int],
+    *,
+    sigma: float | Float[Array, ""],
+    gamma: float | Float[Array, ""],
+    background=(0.0, 0.0, 0.0),
+    light=None,
+    ambient: float = 0.3,
+    eps: float = 1e-4,
+    eps_background: float = 1e-3,
+    tile_size: int = 16,
+    capacity: int = 256,
+    tiles_per_step: int = 16,
+) -> tuple[Float[Array, "H W 4"], Float[Array, "H W"]]:
+    """Render a mesh with the soft rasterizer (SoftRas).
+
+    Differentiable with respect to the mesh vertices and colours and the camera. Faces
+    with a vertex nearer than the camera's near plane (or behind it) are culled.
+
+    **Arguments:**
+
+    - `mesh`: a `gfxlab.mesh.Mesh`; vertex colours (white if absent) are interpolated
+      with clamped barycentric coordinates.
+    - `camera`: a `gfxlab.viewing.Camera`.
+    - `shape`: image shape `(H, W)` (static).
+    - `sigma`: edge sharpness in pixels^2 (> 0).
+    - `gamma`: depth temperature (> 0); small makes the nearest face win.
+    - `background`: background colour `(C,)`.
+    - `light`: optional direction towards a light (world space) for two-sided flat
+      Lambert shading `ambient + (1 - ambient) |n . l|`.
+    - `eps`, `eps_background`: the probability below which a face is dropped at a
+      pixel, and SoftRas' background depth term.
+    - `tile_size`, `capacity`, `tiles_per_step`: as in `soft_silhouette`.
+
+    **Returns:** `(rgba, depth)`: `(H, W, 4)` colour (background blended in) with the
+    soft silhouette as alpha, and the `(H, W)` softmax-weighted eye depth (the
+    background counts as the far plane).
+    """
+    height, width = static_shape(shape)
+    tri, inv_depth, colors, valid = _project_mesh(mesh, camera, (height, width), light, ambient)
+    dtype = tri.dtype
+    sigma = jnp.asarray(sigma, dtype)
+    gamma = jnp.asarray(gamma, dtype)
+    sigma, tile_size, capacity, tiles_per_step = _check_options(
+        sigma, eps, tile_size, capacity, tiles_per_step
+    )
+    gamma = value_error_if(gamma, ~(gamma > 0), "`gamma` must be > 0")
+    background = as_float(background, "background").astype(dtype)
+    check_shape(background, "background", (colors.shape[-1],))
+    params = (sigma, gamma, camera.near.astype(dtype), camera.far.astype(dtype), background,
+              jnp.asarray(eps_background, dtype))
+    out, max_count = _color_core(
+        tri, inv_depth, colors, valid, params, shape=(height, width), eps=float(eps),
+        tile_size=tile_size, capacity=capacity, tiles_per_step=tiles_per_step,
+    )
+    out = _check_capacity(out, max_count, capacity, tile_size)
+    return out[..., :-1], out[..., -1]
+
+
+@functools.partial(jax.jit, static_argnames=("shape", "eps", "tile_size", "capacity",
+                                             "tiles_per_step", "binned"))
+def _color_core(tri, inv_depth, colors, valid, params, *, shape, eps, tile_size, capacity,
+                tiles_per_step, binned=True):
+    sigma, gamma, near, far, background, eps_bg = params
+    margin = jnp.sqrt(sigma * _logit_limit(eps))
+    full = (sigma, gamma, eps, near, far, background, eps_bg)
+    return _tiled(
+        lambda pts, sub, mask: _color_pixels(pts, sub, mask, full),
+        tri, valid, (tri, inv_depth, colors), shape, margin=margin,
+        tile_size=tile_size, capacity=capacity, tiles_per_step=tiles_per_step, binned=binned,
+    )
+
+
+@functools.partial(jax.jit, static_argnames=("shape", "eps"))
+def _dense_soft_rasterize(mesh, camera, shape, *, sigma, gamma, background=(0.0, 0.0, 0.0),
+                          light=None, ambient=0.3, eps=1e-4, eps_background=1e-3):
+    """Reference: every pixel against every face in one step (no tiles, no bins)."""
+    height, width = shape
+    tri, inv_depth, colors, valid = _project_mesh(mesh, camera, shape, light, ambient)
+    dtype = tri.dtype
+    params = (jnp.asarray(sigma, dtype), jnp.asarray(gamma, dtype), eps, camera.near.astype(dtype),
+              camera.far.astype(dtype), jnp.asarray(background, dtype),
+              jnp.asarray(eps_background, dtype))
+    rows, cols = jnp.meshgrid(jnp.arange(height), jnp.arange(width), indexing="ij")
+    points = jnp.stack([cols, height - 1 - rows], -1).reshape(-1, 2).astype(dtype)
+    out = _color_pixels(points, (tri, inv_depth, colors), valid, params).reshape(height, width, -1)
+    return out[..., :-1], out[..., -1]
+
+
+@functools.partial(jax.jit, static_argnames=("shape", "eps"))
+def _dense_soft_silhouette(vertices_2d, faces, shape, *, sigma, eps=1e-4):
+    """Reference: every pixel against every face in one step (no tiles, no bins)."""
+    height, width = shape
+    tri = vertices_2d[faces]
+    rows, cols = jnp.meshgrid(jnp.arange(height), jnp.arange(width), indexing="ij")
+    points = jnp.stack([cols, height - 1 - rows], -1).reshape(-1, 2).astype(tri.dtype)
+    valid = jnp.ones(tri.shape[0], bool)
+    return _silhouette_pixels(points, tri, valid, sigma, eps).reshape(height, width)
+
+
+# ---------------------------------------------------------------------------------------
+# Hard visibility
+
+
+class VisibilityResult(eqx.Module):
+    """What the hidden-surface methods return.
+
+    **Fields:**
+
+    - `image`: `(H, W, C)` the rendered image.
+    - `depth`: `(H, W)` the depth buffer (`inf` where nothing is drawn), or `None` for
+      methods without one.
+    - `counters`: dict of integer scalars: `memory_bytes` (buffers the method keeps),
+      `depth_tests` (depth comparisons), `polygon_tests` (polygon-vs-polygon or
+      polygon-vs-area tests), and method-specific extras.
+    - `quadtree`: for `warnock`, one `(2^l, 2^l)` array of `WARNOCK_CODES` per level.
+    """
+
+    image: Float[Array, "H W C"]
+    depth: Float[Array, "H W"] | None
+    counters: dict
+    quadtree: tuple | None = None
+
+
+#: Decision codes of `warnock`'s quadtree cells.
+WARNOCK_CODES = {
+    0: "not visited",
+    1: "test 1: all polygons disjoint (background)",
+    2: "test 2: one intersecting or contained polygon (scan-converted)",
+    3: "test 3: one surrounding polygon",
+    4: "test 4: surrounding polygon in front of all others",
+    5: "subdivided",
+    6: "pixel: nearest surface",
+}
+
+
+def _prepare_scene(triangles, colors, shape, background):
+    height, width = static_shape(shape)
+    triangles, colors = common_float(triangles, colors, names=("triangles", "colors"))
+    check_shape(triangles, "triangles", (None, 3, 3))
+    if colors.ndim != 2 or colors.shape[0] != triangles.shape[0]:
+        raise ValueError(
+            f"`colors` must have shape ({triangles.shape[0]}, C) (one colour per triangle), "
+            f"got shape {tuple(colors.shape)}"
+        )
+    background = as_float(background, "background").astype(colors.dtype)
+    check_shape(background, "background", (colors.shape[1],))
+    finite = jnp.all(jnp.isfinite(triangles), axis=(1, 2))
+    triangles = jnp.where(finite[:, None, None], triangles, 0.0)
+    xy = triangles[..., :2]
+    area2 = _cross(xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0])
+    valid = finite & (area2 != 0)
+    return (height, width), triangles, colors, background, valid
+
+
+def _edge_functions(points, triangles):
+    """`(..., F, 3)` oriented edge functions (>= 0 inside) and the plane depth `(..., F)`."""
+    xy = triangles[..., :2]
+    area2 = _cross(xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0])
+    start = xy
+    edge = jnp.roll(xy, -1, axis=-2) - start
+    rel = points[..., None, None, :] - start
+    fn = _cross(edge, rel)  # (..., F, 3)
+    safe = jnp.where(area2 != 0, area2, 1.0)
+    bary = jnp.roll(fn, 1, axis=-1) / safe[:, None]
+    depth = jnp.sum(bary * triangles[..., 2], -1)
+    return fn * jnp.sign(area2)[:, None], depth
+
+
+def _covers(points, triangles, valid):
+    fn, depth = _edge_functions(points, triangles)
+    return valid & jnp.all(fn >= 0, axis=-1), depth
+
+
+def _covers_own(points, triangles, valid):
+    """Coverage of each point `(..., 2)` by its own triangle `(..., 3, 3)`."""
+    xy = triangles[..., :2]
+    area2 = _cross(xy[..., 1, :] - xy[..., 0, :], xy[..., 2, :] - xy[..., 0, :])
+    fn = _cross(jnp.roll(xy, -1, axis=-2) - xy, points[..., None, :] - xy)
+    return valid & jnp.all(fn * jnp.sign(area2)[..., None] >= 0, axis=-1)
+
+
+def _pixel_grid(shape, dtype):
+    height, width = shape
+    rows, cols = jnp.meshgrid(jnp.arange(height), jnp.arange(width), indexing="ij")
+    return jnp.stack([cols, height - 1 - rows], -1).astype(dtype)
+
+
+def _nearest(points, triangles, valid):
+    """Index of the nearest covering triangle at `points (..., 2)` (-1: none) and its depth."""
+    cover, depth = _covers(points, triangles, valid)
+    depth = jnp.where(cover, depth, jnp.inf)
+    index = jnp.argmin(depth, axis=-1)  # first minimum: ties go to the lower index
+    hit = jnp.any(cover, axis=-1)
+    return jnp.where(hit, index, -1), jnp.min(depth, axis=-1), jnp.sum(cover, axis=-1)
+
+
+def _compose(owner, colors, background):
+    return jnp.where((owner >= 0)[..., None], colors[jnp.maximum(owner, 0)], background)
+
+
+def _int(x):
+    return jnp.asarray(x, dtype=jnp.result_type(int))
+
+
+@functools.partial(jax.jit, static_argnames=("shape",))
+def zbuffer(triangles: Float[Array, "F 3 3"], colors: Float[Array, "F C"],
+            shape: tuple[int, int], *, background=0.0) -> VisibilityResult:
+    """Z-buffer (depth-buffer) visible-surface algorithm, one polygon at a time.
+
+    Frame buffer = background and depth buffer = inf; then for each triangle and each
+    pixel it covers, a depth test: if nearer than the stored depth, store its depth and
+    colour.
+
+    **Arguments:**
+
+    - `triangles`: `(F, 3, 3)` corners as (pixel x, pixel y, depth); smaller depth is
+      nearer. Triangles with non-finite coordinates or no area are skipped.
+    - `colors`: `(F, C)` one colour per triangle.
+    - `shape`: image shape `(H, W)`.
+    - `background`: background colour `(C,)` or a scalar.
+
+    **Returns:** a `VisibilityResult` with the image, the depth buffer and counters.
+    """
+    colors = as_float(colors, "colors")
+    if colors.ndim == 2:
+        background = jnp.broadcast_to(as_float(background, "background"), colors.shape[1:])
+    shape, triangles, colors, background, valid = _prepare_scene(triangles, colors, shape,
+                                                                 background)
+    grid = _pixel_grid(shape, triangles.dtype)
+
+    def draw(carry, face):
+        frame, depth, tests = carry
+        tri, color, ok = face
+        cover, z = _covers(grid, tri[None], ok[None])
+        cover, z = cover[..., 0], z[..., 0]
+        nearer = cover & (z < depth)
+        frame = jnp.where(nearer[..., None], color, frame)
+        depth = jnp.where(nearer, z, depth)
+        return (frame, depth, tests + jnp.sum(cover)), None
+
+    frame = jnp.broadcast_to(background, shape + background.shape)
+    depth = jnp.full(shape, jnp.inf, triangles.dtype)
+    (frame, depth, tests), _ = jax.lax.scan(
+        draw, (frame, depth, _int(0)), (triangles, colors, valid)
+    )
+    memory = frame.size * frame.dtype.itemsize + depth.size * depth.dtype.itemsize
+    counters = {"memory_bytes": _int(memory), "depth_tests": tests, "polygon_tests": _int(0)}
+    return VisibilityResult(frame, depth, counters)
+
+
+def _with_background(colors, background):
+    colors = as_float(colors, "colors")
+    if colors.ndim == 2:
+        return jnp.broadcast_to(as_float(background, "background"), colors.shape[1:])
+    return background
+
+
+def _obscures(triangles, valid):
+    """`(F, F)`: triangle i is nearer than triangle j somewhere where both are drawn.
+
+    The depth difference is affine over the overlap of the two projections, so its
+    minimum is at a corner of the overlap: a corner of one triangle inside the other or
+    a crossing of two edges. Also returns how many pairs needed this exact test.
+    """
+    xy = triangles[..., :2]
+    zmin, zmax = triangles[..., 2].min(-1), triangles[..., 2].max(-1)
+    lo, hi = xy.min(1), xy.max(1)
+    boxes = jnp.all((lo[:, None] <= hi[None]) & (lo[None] <= hi[:, None]), -1)
+    candidates = valid[:, None] & valid[None] & boxes & ~jnp.eye(len(xy), dtype=bool)
+    # quick test: i entirely behind j in depth cannot obscure it
+    candidates = candidates & ~(zmin[:, None] >= zmax[None])
+    scale = jnp.maximum(jnp.max(jnp.abs(xy)), 1.0)
+    tol = 1e-9 * scale * scale
+
+    def pair(ti, tj):
+        pi, pj = ti[:, :2], tj[:, :2]
+        # corners of i and j, and the 9 edge crossings
+        ri = jnp.roll(pi, -1, 0) - pi
+        rj = jnp.roll(pj, -1, 0) - pj
+        denom = _cross(ri[:, None], rj[None])
+        qp = pj[None] - pi[:, None]
+        ok = jnp.abs(denom) > 0
+        safe = jnp.where(ok, denom, 1.0)
+        t = _cross(qp, rj[None]) / safe
+        u = _cross(qp, ri[:, None]) / safe
+        crossing = ok & (t >= 0) & (t <= 1) & (u >= 0) & (u <= 1)
+        cross_pts = (pi[:, None] + t[..., None] * ri[:, None]).reshape(9, 2)
+        points = jnp.concatenate([pi, pj, cross_pts])
+        fi, di = _edge_functions(points, ti[None])
+        fj, dj = _edge_functions(points, tj[None])
+        inside = jnp.all(fi[:, 0] >= -tol, -1) & jnp.all(fj[:, 0] >= -tol, -1)
+        inside = inside | jnp.concatenate([jnp.zeros(6, bool), crossing.reshape(9)])
+        inside = inside & jnp.concatenate(
+            [jnp.all(fj[:3, 0] >= -tol, -1), jnp.all(fi[3:6, 0] >= -tol, -1),
+             crossing.reshape(9)]
+        )
+        diff = di[:, 0] - dj[:, 0]
+        depth_tol = 1e-9 * jnp.maximum(jnp.max(jnp.abs(ti[:, 2])), jnp.max(jnp.abs(tj[:, 2])))
+        return jnp.any(inside & (diff < -depth_tol - 1e-12))
+
+    nearer = jax.vmap(lambda ti: jax.vmap(lambda tj: pair(ti, tj))(triangles))(triangles)
+    return candidates & nearer, jnp.sum(candidates)
+
+
+@functools.partial(jax.jit, static_argnames=("shape",))
+def painter(triangles: Float[Array, "F 3 3"], colors: Float[Array, "F C"],
+            shape: tuple[int, int], *, background=0.0) -> VisibilityResult:
+    """Painter's algorithm (depth sort): paint far to near, over-painting.
+
+    Triangles are sorted by their farthest depth; then every pair whose projections
+    and depth ranges overlap is tested, and a triangle that is nearer than another
+    anywhere in their common area is painted after it (a topological order). With
+    cyclic overlaps no such order exists (`counters["cycle"]` is 1): the plain depth
+    sort is painted and the picture is wrong where the cycle overlaps, which is the
+    textbook failure (fixing it needs polygon splitting).
+
+    Arguments and result as for `zbuffer`; there is no depth buffer (`depth` is None).
+    """
+    background = _with_background(colors, background)
+    shape, triangles, colors, background, valid = _prepare_scene(triangles, colors, shape,
+                                                                 background)
+    count = triangles.shape[0]
+    obscures, exact_tests = _obscures(triangles, valid)
+
+    # level[i] = length of the longest chain of triangles that must be painted before i
+    def body(state):
+        level, _, steps = state
+        new = jnp.max(jnp.where(obscures, level[None, :] + 1, 0), axis=1, initial=0)
+        return new, jnp.any(new != level), steps + 1
+
+    level, changing, _ = jax.lax.while_loop(
+        lambda s: s[1] & (s[2] <= count), body,
+        (jnp.zeros(count, jnp.int32), jnp.array(True), jnp.int32(0)),
+    )
+    cycle = changing
+    far_first = -triangles[..., 2].max(-1)
+    level = jnp.where(cycle, 0, level)
+    order = jnp.lexsort((far_first, level))
+
+    grid = _pixel_grid(shape, triangles.dtype)
+
+    def paint(carry, index):
+        frame, writes = carry
+        cover, _ = _covers(grid, triangles[index][None], valid[index][None])
+        cover = cover[..., 0]
+        return (jnp.where(cover[..., None], colors[index], frame), writes + jnp.sum(cover)), None
+
+    frame = jnp.broadcast_to(background, shape + background.shape)
+    (frame, writes), _ = jax.lax.scan(paint, (frame, _int(0)), order)
+    pairs = count * (count - 1) // 2
+    counters = {
+        "memory_bytes": _int(frame.size * frame.dtype.itemsize + count * 8),
+        "depth_tests": _int(0),
+        "polygon_tests": _int(pairs) + exact_tests,
+        "pixel_writes": writes,
+        "cycle": cycle.astype(_int(0).dtype),
+    }
+    return VisibilityResult(frame, None, counters)
+
+
+def _classify(rects, triangles, valid):
+    """Warnock's relation of every triangle to every rectangle of pixel centres.
+
+    `rects (..., 4)` as (xmin, ymin, xmax, ymax) -> `(disjoint, surrounding)`, each
+    `(..., F)`; the rest are intersecting or contained.
+    """
+    corners = jnp.stack(
+        [rects[..., [0, 1]], rects[..., [2, 1]], rects[..., [2, 3]], rects[..., [0, 3]]], -2
+    )  # (..., 4, 2)
+    fn, _ = _edge_functions(corners, triangles)  # (..., 4, F, 3)
+    surrounding = valid & jnp.all(fn >= 0, axis=(-3, -1))
+    xy = triangles[..., :2]
+    lo, hi = xy.min(1), xy.max(1)
+    apart = (
+        (lo[:, 0] > rects[..., 2:3]) | (hi[:, 0] < rects[..., 0:1])
+        | (lo[:, 1] > rects[..., 3:4]) | (hi[:, 1] < rects[..., 1:2])
+    )
+    separated = jnp.any(jnp.all(fn < 0, axis=-3), axis=-1)  # an edge with all corners out
+    return ~valid | apart | separated, surrounding, corners
+
+
+@functools.partial(jax.jit, static_argnames=("shape",))
+def warnock(triangles: Float[Array, "F 3 3"], colors: Float[Array, "F C"],
+            shape: tuple[int, int], *, background=0.0) -> VisibilityResult:
+    """Warnock's area-subdivision algorithm, breadth first over the quadtree.
+
+    The image is padded to a `2^L x 2^L` square. At each level every undecided cell
+    (a rectangle of pixel centres) is classified against every triangle as disjoint,
+    surrounding, or intersecting/contained, and decided by the seed's tests: (1) all
+    disjoint: background; (2) one intersecting or contained polygon: background, then
+    that polygon scan-converted; (3) one surrounding polygon and nothing else: its
+    colour; (4) a surrounding polygon nearer than all others at the cell's four
+    corners: its colour. Otherwise the cell is split into four. At pixel size the
+    nearest surface is used.
+
+    Arguments as for `zbuffer`. The result has no depth buffer; `quadtree` holds the
+    decision code (`WARNOCK_CODES`) of every cell at every level, for overlays
+    (`quadtree_cells`).
+    """
+    background = _with_background(colors, background)
+    (height, width), triangles, colors, background, valid = _prepare_scene(
+        triangles, colors, shape, background
+    )
+    levels = max(0, math.ceil(math.log2(max(height, width))))
+    size = 2**levels
+    grid = _pixel_grid((size, size), triangles.dtype).at[..., 1].add(height - size)
+    owner = jnp.full((size, size), -1)
+    decided = jnp.zeros((size, size), bool)
+    codes = []
+    polygon_tests = _int(0)
+    depth_tests = _int(0)
+    max_active = _int(0)
+    for level in range(levels + 1):
+        n = 2**level
+        s = size // n
+        block = grid.reshape(n, s, n, s, 2)
+        rects = jnp.concatenate([block[:, -1, :, 0], block[:, 0, :, -1]], -1)  # (n, n, 4)
+        active = ~decided[::s, ::s]
+        disjoint, surrounding, corners = _classify(rects, triangles, valid)
+        relevant = ~disjoint
+        n_rel = jnp.sum(relevant, -1)
+        n_sur = jnp.sum(surrounding, -1)
+        first_rel = jnp.argmax(relevant, -1)
+        _, corner_depth = _edge_functions(corners, triangles)  # (n, n, 4, F)
+        corner_depth = jnp.where(relevant[..., None, :], corner_depth, jnp.inf)
+        # test 4: a surrounding triangle strictly nearer than every other relevant one
+        nearest_other = jnp.min(
+            jnp.where(jnp.eye(len(valid), dtype=bool)[None, None, None], jnp.inf,
+                      corner_depth[..., None, :]), axis=-1
+        )  # (n, n, 4, F): for each candidate, the nearest other at each corner
+        front = surrounding & jnp.all(corner_depth < nearest_other, axis=-2)
+        test1 = n_rel == 0
+        test2 = (n_rel == 1) & (n_sur == 0)
+        test3 = (n_rel == 1) & (n_sur == 1)
+        test4 = ~test1 & ~test2 & ~test3 & jnp.any(front, -1)
+        bottom = level == levels
+        code = jnp.select([test1, test2, test3, test4], [1, 2, 3, 4], 6 if bottom else 5)
+        code = jnp.where(active, code, 0)
+        cell_owner = jnp.select([test3, test4], [first_rel, jnp.argmax(front, -1)], -1)
+        # test 2: scan-convert the single polygon inside its cell
+        px_first = jnp.repeat(jnp.repeat(first_rel, s, 0), s, 1)
+        covered_first = _covers_own(grid, triangles[px_first], valid[px_first])
+        px_code = jnp.repeat(jnp.repeat(code, s, 0), s, 1)
+        px_owner = jnp.repeat(jnp.repeat(cell_owner, s, 0), s, 1)
+        px_owner = jnp.where(px_code == 2, jnp.where(covered_first, px_first, -1), px_owner)
+        if bottom:
+            nearest, _, covering = _nearest(grid, triangles, valid)
+            px_owner = jnp.where(px_code == 6, nearest, px_owner)
+            depth_tests = depth_tests + jnp.sum(jnp.where(code == 6, covering, 0))
+        newly = (px_code >= 1) & (px_code != 5)
+        owner = jnp.where(newly, px_owner, owner)
+        decided = decided | newly
+        polygon_tests = polygon_tests + jnp.sum(active) * len(valid)
+        reached4 = active & ~test1 & ~test2 & ~test3 & (n_sur > 0)
+        depth_tests = depth_tests + 4 * jnp.sum(jnp.where(reached4, n_rel, 0))
+        max_active = jnp.maximum(max_active, jnp.sum(active))
+        codes.append(code.astype(jnp.int8))
+    owner = owner[:height, :width]
+    image = _compose(owner, colors, background)
+    memory = image.size * image.dtype.itemsize + max_active * 4 * 4
+    counters = {"memory_bytes": _int(memory), "depth_tests": depth_tests,
+                "polygon_tests": polygon_tests, "cells": _int(sum(jnp.sum(c > 0) for c in codes))}
+    return VisibilityResult(image, None, counters, tuple(codes))
+
+
+def quadtree_cells(quadtree, shape: tuple[int, int]) -> np.ndarray:
+    """Warnock's decided cells as rows `(xmin, ymin, xmax, ymax, level, code)` (NumPy).
+
+    Coordinates are pixel edges (a cell of pixel centres 0..3 spans -0.5..3.5), for
+    drawing rectangles over `plt.imshow(image, extent=image_extent(shape))`; cells
+    entirely outside the image are dropped.
+    """
+    height, width = static_shape(shape)
+    size = 2 ** (len(quadtree) - 1)
+    rows = []
+    for level, code in enumerate(quadtree):
+        code = np.asarray(code)
+        s = size // code.shape[0]
+        r, c = np.nonzero(code > 0)
+        if len(r) == 0:
+            continue
+        x0, x1 = c * s - 0.5, np.minimum(c * s + s, width) - 0.5
+        top = r * s  # array row of the cell's first pixel row
+        y1 = height - 0.5 - top
+        y0 = np.maximum(height - 0.5 - (top + s), -0.5)
+        keep = (c * s < width) & (top < height)
+        rows.append(np.stack([x0, y0, x1, y1, np.full_like(x0, level), code[r, c]], -1)[keep])
+    return np.concatenate(rows) if rows else np.zeros((0, 6))
+
+
+@functools.partial(jax.jit, static_argnames=("shape",))
+def scanline(triangles: Float[Array, "F 3 3"], colors: Float[Array, "F C"],
+             shape: tuple[int, int], *, background=0.0) -> VisibilityResult:
+    """Scan-line visible-surface algorithm, one image row at a time.
+
+    For each scan line the active triangles are those it crosses; each gives a span
+    `[x_left, x_right]` from the crossings of its edges. Where only one span covers a
+    pixel it is drawn without a depth test; where several overlap, the depths along
+    the line are compared. Only one row of depths is kept.
+
+    Arguments as for `zbuffer`; no full depth buffer (`depth` is None).
+    """
+    background = _with_background(colors, background)
+    (height, width), triangles, colors, background, valid = _prepare_scene(
+        triangles, colors, shape, background
+    )
+    xs = jnp.arange(width, dtype=triangles.dtype)
+    start = triangles[..., :2]
+    end = jnp.roll(start, -1, axis=-2)
+    z_plane = triangles  # plane depth from the edge functions
+
+    def row(carry, r):
+        tests, spans = carry
+        y = (height - 1 - r).astype(triangles.dtype)
+        dy = end[..., 1] - start[..., 1]
+        crosses = ((start[..., 1] - y) * (end[..., 1] - y) <= 0) & (dy != 0)
+        t = jnp.where(crosses, (y - start[..., 1]) / jnp.where(dy != 0, dy, 1.0), 0.0)
+        x = start[..., 0] + t * (end[..., 0] - start[..., 0])
+        left = jnp.min(jnp.where(crosses, x, jnp.inf), -1)
+        right = jnp.max(jnp.where(crosses, x, -jnp.inf), -1)
+        active = valid & jnp.any(crosses, -1)
+        in_span = active & (xs[:, None] >= left) & (xs[:, None] <= right)  # (W, F)
+        points = jnp.stack([xs, jnp.full_like(xs, y)], -1)
+        _, depth = _edge_functions(points, z_plane)
+        depth = jnp.where(in_span, depth, jnp.inf)
+        nearest = jnp.where(jnp.any(in_span, -1), jnp.argmin(depth, -1), -1)
+        overlapping = jnp.sum(in_span, -1)
+        tests = tests + jnp.sum(jnp.where(overlapping > 1, overlapping, 0))
+        return (tests, spans + jnp.sum(active)), nearest
+
+    (tests, spans), owner = jax.lax.scan(row, (_int(0), _int(0)), jnp.arange(height))
+    image = _compose(owner, colors, background)
+    itemsize = triangles.dtype.itemsize
+    memory = image.size * image.dtype.itemsize + width * itemsize + triangles.shape[0] * 3 * 4 * itemsize
+    counters = {"memory_bytes": _int(memory), "depth_tests": tests, "polygon_tests": spans}
+    return VisibilityResult(image, None, counters)
+
+
+def screen_scene(mesh: Mesh, camera: Camera, shape: tuple[int, int], *, light=None,
+                 ambient: float = 0.3) -> tuple[Float[Array, "F 3 3"], Float[Array, "F C"]]:
+    """A mesh seen by a camera as a screen-space triangle scene for the hard methods.
+
+    **Returns:** `(triangles, colors)`: `(F, 3, 3)` corners as (pixel x, pixel y, NDC z)
+    (NDC z is affine across each projected triangle, as the depth tests need; faces
+    crossing the near plane get NaN and are skipped), and `(F, C)` face colours (the
+    mean of the vertex colours, white if none, shaded as in `soft_rasterize`).
+    """
+    height, width = static_shape(shape)
+    tri, _, corner_colors, valid = _project_mesh(mesh, camera, (height, width), light, ambient)
+    vertices = mesh.vertices
+    homogeneous = jnp.concatenate([vertices, jnp.ones_like(vertices[:, :1])], -1)
+    clip = homogeneous @ camera.matrix().T.astype(vertices.dtype)
+    z_ndc = clip[:, 2] / jnp.where(clip[:, 3] >= camera.near, clip[:, 3], 1.0)
+    scene = jnp.concatenate([tri, z_ndc[mesh.faces][..., None]], -1)
+    scene = jnp.where(valid[:, None, None], scene, jnp.nan)
+    return scene, corner_colors.mean(axis=1)
+
+
+del Bool

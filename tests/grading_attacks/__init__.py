@@ -1,0 +1,1 @@
+"""Attack submissions for the grader (see `attacks.py`)."""

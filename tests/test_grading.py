@@ -1,0 +1,319 @@
+"""gfxlab.grading: authoring format, wire format, assignments, CLI.
+
+The attack suite is in `test_grading_attacks.py`. Everything that starts student
+processes shares one xdist worker (`xdist_group("grading")`) and uses small limits.
+"""
+
+import csv
+import json
+import pathlib
+import sys
+
+import numpy as np
+import pytest
+
+from gfxlab.grading import (
+    AuthoringError,
+    Autograder,
+    Feedback,
+    Limits,
+    Sandbox,
+    assign,
+    check_array,
+    detect_protections,
+    parse_notebook,
+    strip_solutions,
+)
+from gfxlab.grading import codec
+from gfxlab.grading.authoring import new_cell, new_notebook, write_notebook
+from gfxlab.grading.cli import main
+
+ASSIGNMENTS = pathlib.Path(__file__).resolve().parents[1] / "labs" / "assignments"
+SOURCES = {
+    "midpoint_circle": ASSIGNMENTS / "01_midpoint_circle.ipynb",
+    "cohen_sutherland": ASSIGNMENTS / "02_cohen_sutherland.ipynb",
+    "bezier": ASSIGNMENTS / "03_bezier.ipynb",
+    "jpeg_block": ASSIGNMENTS / "04_jpeg_block.ipynb",
+}
+LIMITS = dict(call_timeout=5.0, exec_timeout=10.0, memory_mb=3072, output_mb=4)
+# One deliberate bug per assignment: (text in the reference, replacement, question hit).
+BUGS = {
+    "midpoint_circle": ("rows.append((p, x, y))", "rows.append((p + 1, x, y))", "q1"),
+    "cohen_sutherland": ("LEFT, RIGHT, BOTTOM, TOP = 8, 4, 2, 1",
+                         "LEFT, RIGHT, BOTTOM, TOP = 4, 8, 2, 1", "q1"),
+    "bezier": ("points = (1 - u) * points[:-1] + u * points[1:]",
+               "points = u * points[:-1] + (1 - u) * points[1:]", "q2"),
+    "jpeg_block": ("np.round(np.asarray(coefficients) / table)",
+                   "np.floor(np.asarray(coefficients) / table)", "q2"),
+}
+
+grading = pytest.mark.xdist_group("grading")
+
+
+# --- authoring format (no student processes) ---------------------------------------------
+
+
+def test_strip_solution_forms():
+    src = (
+        "def f(x):\n"
+        "    y = 2 * x  # SOLUTION\n"
+        "    # BEGIN SOLUTION\n"
+        "    z = y + 1\n"
+        "    # END SOLUTION\n"
+        "    return z  # SOLUTION\n"
+        "print(x)  # SOLUTION"
+    )
+    assert strip_solutions(src) == "def f(x):\n    y = ...\n    ...\n    return ...\n..."
+
+
+def test_strip_solution_unbalanced():
+    with pytest.raises(AuthoringError, match="without `# END SOLUTION`"):
+        strip_solutions("# BEGIN SOLUTION\nx = 1")
+    with pytest.raises(AuthoringError, match="without `# BEGIN SOLUTION`"):
+        strip_solutions("x = 1\n# END SOLUTION")
+
+
+def _notebook(*cells, **meta):
+    nb = new_notebook(cells=list(cells))
+    if meta:
+        nb["metadata"]["gfxlab"] = meta
+    return nb
+
+
+def _otter_style():
+    """Otter's raw-cell form: markers in raw cells, TEST CONFIG and # HIDDEN."""
+    return _notebook(
+        new_cell("markdown", "<!-- BEGIN QUESTION -->\nname: q1\npoints: 5\n\nDouble it."),
+        new_cell("code", "def double(x):\n    # BEGIN SOLUTION\n    return 2 * x\n"
+                         "    # END SOLUTION"),
+        new_cell("raw", "# BEGIN TESTS"),
+        new_cell("code", "def test_two(double):\n    assert double(2) == 4\n\n\n# HIDDEN\n"
+                         "def test_three(double):\n    assert double(3) == 6"),
+        new_cell("code", '""" # BEGIN TEST CONFIG\nhidden: true\npoints: 2\n'
+                         '""" # END TEST CONFIG\nSECRET = 21\n\n\n'
+                         "def test_secret(double):\n    assert double(SECRET) == 42"),
+        new_cell("raw", "# END TESTS"),
+        new_cell("raw", "# END QUESTION"),
+        name="double",
+    )
+
+
+def test_parse_otter_style():
+    a = parse_notebook(_otter_style())
+    (q,) = a.questions
+    assert (q.name, q.points, q.functions) == ("q1", 5.0, ("double",))
+    assert [(t.name, t.hidden, t.weight) for t in q.tests] == [
+        ("test_two", False, 1.0), ("test_three", True, 1.0), ("test_secret", True, 2.0)]
+    student = "\n".join(c["source"] for c in a.student["cells"])
+    assert "test_two" in student and "Double it." in student
+    for secret in ("test_three", "test_secret", "SECRET", "2 * x", "SOLUTION"):
+        assert secret not in student
+    assert any("return 2 * x" in c for c in a.solution_cells)
+
+
+def test_question_without_tests():
+    nb = _notebook(new_cell("raw", "# BEGIN QUESTION\nname: q1\npoints: 5"),
+                   new_cell("code", "def f():\n    return 1  # SOLUTION"),
+                   new_cell("raw", "# END QUESTION"))
+    with pytest.raises(AuthoringError, match="q1 has no tests"):
+        parse_notebook(nb)
+
+
+def test_unclosed_question_and_tests_outside():
+    with pytest.raises(AuthoringError, match="no `# END QUESTION`"):
+        parse_notebook(_notebook(new_cell("raw", "# BEGIN QUESTION\nname: q1")))
+    with pytest.raises(AuthoringError, match="tests outside a question"):
+        parse_notebook(_notebook(new_cell("code", "# BEGIN TESTS\ndef test_a(f):\n    pass")))
+
+
+@grading
+def test_solution_marker_left_in_student_notebook(tmp_path):
+    nb = _otter_style()
+    nb["cells"].insert(1, new_cell("markdown", "Hint: the grader strips # BEGIN SOLUTION"))
+    write_notebook(nb, tmp_path / "src.ipynb")
+    with pytest.raises(AuthoringError, match="solution marker"):
+        assign(tmp_path / "src.ipynb", tmp_path / "out", verify=False)
+
+
+@grading
+def test_hidden_test_failing_on_reference(tmp_path):
+    nb = _otter_style()
+    nb["cells"][4]["source"] = nb["cells"][4]["source"].replace("== 42", "== 43")
+    write_notebook(nb, tmp_path / "src.ipynb")
+    with pytest.raises(AuthoringError, match=r"reference solution:\nq1.test_secret"):
+        assign(tmp_path / "src.ipynb", tmp_path / "out", limits=LIMITS)
+
+
+@grading
+def test_test_that_cannot_fail(tmp_path):
+    nb = _otter_style()
+    for i in (3, 4):
+        nb["cells"][i]["source"] = nb["cells"][i]["source"].replace("assert", "assert True or")
+    write_notebook(nb, tmp_path / "src.ipynb")
+    with pytest.raises(AuthoringError, match="tests cannot fail"):
+        assign(tmp_path / "src.ipynb", tmp_path / "out", limits=LIMITS)
+
+
+# --- wire format -------------------------------------------------------------------------
+
+
+def test_codec_round_trip():
+    value = {"a": [1, 2.5, None, True, "s"], 3: (np.arange(6, dtype=np.int16).reshape(2, 3),),
+             (1, "k"): np.float32(1.5), "z": np.zeros((0, 2), bool), "n": float("nan")}
+    back = codec.decode(codec.loads(codec.dumps(codec.encode(value))[4:]))
+    assert back.keys() == value.keys()
+    np.testing.assert_array_equal(back[3][0], value[3][0])
+    assert back[3][0].dtype == np.int16 and type(back[3]) is tuple
+    assert back[(1, "k")] == np.float32(1.5) and back[(1, "k")].dtype == np.float32
+    assert back["z"].shape == (0, 2) and np.isnan(back["n"])
+
+
+def test_codec_refuses_objects():
+    class Sneaky(list):
+        def __eq__(self, other):
+            return True
+
+    for bad in (Sneaky(), object(), np.array(["a"]), np.array([object()]), lambda: 1):
+        with pytest.raises(codec.WireError):
+            codec.encode(bad)
+
+
+@pytest.mark.parametrize("raw", [
+    b'{"a": "object", "s": [1], "b": "AAAAAAAAAAA=", "g": false}',
+    b'{"a": "float64", "s": [2], "b": "AAAAAAAAAAA=", "g": false}',
+    b'{"x": 1}', b'{"f": 1.5}', b"NaN", b'{"t": 5}', b'{"d": [[[1], 2]]}',
+    b"[" * 5000 + b"]" * 5000, b"1" * 5000,
+])
+def test_codec_decoder_is_strict(raw):
+    with pytest.raises(codec.WireError):
+        codec.decode(codec.loads(raw))
+
+
+def test_check_array_messages():
+    with pytest.raises(Feedback, match=r"should have shape \(any, 3\), got shape \(7, 2\)"):
+        check_array(np.zeros((7, 2)), shape=(None, 3))
+    with pytest.raises(Feedback, match="should have an integer dtype, got float64"):
+        check_array(np.zeros((7, 3)), kind="i")
+    with pytest.raises(Feedback, match="should have dtype float64, got float32"):
+        check_array(np.zeros(3, np.float32), dtype=np.float64)
+    with pytest.raises(Feedback, match="should be an array, got NoneType"):
+        check_array(None)
+    assert check_array([[1, 2]], shape=(1, 2), kind="i").dtype.kind == "i"
+
+
+# --- sandbox -----------------------------------------------------------------------------
+
+
+@grading
+def test_sandbox_isolation_layers(tmp_path):
+    prot = detect_protections()
+    lines = prot.describe()
+    assert any(line.startswith("separate fresh Python process") for line in lines)
+    secret = tmp_path / "secret"
+    secret.mkdir()
+    (secret / "answer.txt").write_text("42")
+    with Sandbox(Limits(call_timeout=5), hide=(str(secret),)) as box:
+        box.start()
+        box.request("exec", 5, cell=0, source=(
+            "import os, sys\n"
+            "def probe(path):\n"
+            "    try:\n"
+            "        readable = open(path).read()\n"
+            "    except OSError:\n"
+            "        readable = None\n"
+            "    return os.getuid(), readable, sys.flags.isolated, sorted(os.environ)\n"))
+        uid, readable, isolated, env = box.request(
+            "call", 5, name="probe", transforms=codec.encode([]),
+            args=codec.encode([str(secret / "answer.txt")]), kwargs=codec.encode({}))
+    assert isolated == 1 and "PYTHONPATH" not in env and "HOME" in env
+    if prot.drop_privileges:
+        assert uid != 0
+    if prot.drop_privileges or prot.mount_namespace:
+        assert readable is None
+    if sys.platform == "linux" and prot.drop_privileges:  # this repo's CI: root with unshare
+        assert prot.network_namespace and prot.pid_namespace
+
+
+# --- the shipped assignments -------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """Every shipped assignment, assigned (which grades reference and blank) once."""
+    out = {}
+    for name, source in SOURCES.items():
+        out[name] = assign(source, tmp_path_factory.mktemp(name), limits=LIMITS)
+    return out
+
+
+@grading
+@pytest.mark.parametrize("name", list(SOURCES))
+def test_assignment_reference_blank_and_wrong(built, name, tmp_path):
+    result = built[name]
+    assert result.reference.score == result.reference.max_score == 15
+    assert all(q.points == 5 for q in result.reference.questions)
+    assert result.blank.score == 0
+    student = json.loads(result.student_notebook.read_text())
+    text = json.dumps(student)
+    assert "SOLUTION" not in text and "(hidden)" not in text
+    grader = Autograder(result.autograder)
+    hidden = [t.name for q in grader.questions for t in q.tests if t.hidden]
+    assert hidden and not any(h in text for h in hidden)
+
+    old, new, question = BUGS[name]
+    cells = grader.solution_cells()
+    assert sum(old in c for c in cells) == 1
+    wrong = grader.grade_cells([c.replace(old, new) for c in cells], limits=LIMITS)
+    scores = {q.name: q.score for q in wrong.questions}
+    assert 0 < wrong.score < 15
+    assert scores[question] < 5
+    assert all(s == 5 for q, s in scores.items() if q != question)
+
+
+@grading
+def test_cli_grade_check_and_folder(built, tmp_path, capsys):
+    result = built["midpoint_circle"]
+    grader = Autograder(result.autograder)
+    ref = write_notebook_cells(grader.solution_cells(), tmp_path / "subs" / "alice.ipynb")
+    blank = tmp_path / "subs" / "bob.ipynb"
+    blank.write_text(result.student_notebook.read_text())
+    # A wrong shape and a wrong dtype: clear feedback, not a crash.
+    odd = [c.replace("    return rows", "    return np.array(rows, float)[:, :2]")
+           for c in grader.solution_cells()]
+    shape = write_notebook_cells(odd, tmp_path / "subs" / "carol.ipynb")
+    (tmp_path / "subs" / "dave.ipynb").write_text("{not a notebook")
+
+    out = tmp_path / "results.json"
+    assert main("grade", [str(ref), "--autograder", str(result.autograder), "--out", str(out),
+                          "--timeout", "5"]) == 0
+    printed = capsys.readouterr().out
+    assert "total     15.00" in printed
+    report = json.loads(out.read_text())
+    assert report["score"] == 15 and len(report["tests"]) == 3
+    assert set(report["tests"][0]) >= {"name", "score", "max_score", "output", "visibility"}
+
+    assert main("grade", [str(shape), "--autograder", str(result.autograder), "--out", str(out),
+                          "--verbose"]) == 0
+    printed = capsys.readouterr().out
+    assert "the trace should have shape (any, 3), got shape (7, 2)" in printed
+    report = json.loads(out.read_text())
+    assert [t["score"] for t in report["tests"]] == [0, 5, 5]
+
+    assert main("check", [str(result.student_notebook)]) == 0
+    printed = capsys.readouterr().out
+    assert "FAIL test_seed_table_r10" in printed and "(hidden)" not in printed
+
+    folder = tmp_path / "graded"
+    assert main("grade", [str(tmp_path / "subs"), "--autograder", str(result.autograder),
+                          "--out", str(folder), "--jobs", "2"]) == 0
+    rows = list(csv.DictReader((folder / "summary.csv").open()))
+    totals = {r["submission"]: float(r["total"]) for r in rows}
+    assert totals == {"alice.ipynb": 15, "bob.ipynb": 0, "carol.ipynb": 10, "dave.ipynb": 0}
+    assert json.loads((folder / "alice" / "results.json").read_text())["score"] == 15
+
+
+def write_notebook_cells(cells, path):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    nb = new_notebook(cells=[new_cell("code", c) for c in cells])
+    write_notebook(nb, path)
+    return path

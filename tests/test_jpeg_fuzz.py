@@ -1,0 +1,109 @@
+"""gfxlab.jpeg.decode on corrupt, truncated and unsupported input: only JPEGError."""
+
+from __future__ import annotations
+
+import io
+import time
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from PIL import Image
+
+from gfxlab.jpeg import JPEGError, decode, encode
+
+
+def _seeds() -> list[bytes]:
+    rng = np.random.default_rng(0)
+    img = rng.integers(0, 256, (16, 24, 3), dtype=np.uint8)
+    files = [encode(img, quality=q, subsampling=s) for q, s in [(50, "4:2:0"), (90, "4:4:4")]]
+    files.append(encode(img[..., 0], quality=75))
+    buf = io.BytesIO()
+    Image.fromarray(img).save(buf, "JPEG", quality=80, restart_marker_blocks=2)
+    files.append(buf.getvalue())
+    return files
+
+
+SEEDS = _seeds()
+
+
+def _decode_or_jpeg_error(data: bytes) -> None:
+    try:
+        out = decode(data)
+    except JPEGError:
+        return
+    assert out.dtype == np.uint8 and out.ndim in (2, 3)
+
+
+def _mutate(data: bytes, rng: np.random.Generator) -> bytes:
+    arr = bytearray(data)
+    kind = rng.integers(0, 6)
+    if kind == 0:  # flip bytes anywhere
+        for i in rng.integers(0, len(arr), rng.integers(1, 6)):
+            arr[i] = int(rng.integers(0, 256))
+    elif kind == 1:  # flip bytes in the headers (tables, frame, scan headers)
+        for i in rng.integers(2, min(len(arr), 640), rng.integers(1, 4)):
+            arr[i] = int(rng.integers(0, 256))
+    elif kind == 2:  # truncate
+        arr = arr[: int(rng.integers(0, len(arr)))]
+    elif kind == 3:  # insert random bytes
+        at = int(rng.integers(0, len(arr)))
+        arr[at:at] = rng.integers(0, 256, int(rng.integers(1, 16)), dtype=np.uint8).tobytes()
+    elif kind == 4:  # delete a chunk
+        at = int(rng.integers(0, len(arr)))
+        del arr[at : at + int(rng.integers(1, 64))]
+    else:  # plant a marker
+        at = int(rng.integers(2, len(arr) - 1))
+        arr[at : at + 2] = bytes([0xFF, int(rng.integers(0xC0, 0x100))])
+    return bytes(arr)
+
+
+def test_mutated_files_raise_only_jpeg_error():
+    rng = np.random.default_rng(1234)
+    start = time.perf_counter()
+    for case in range(2000):
+        _decode_or_jpeg_error(_mutate(SEEDS[case % len(SEEDS)], rng))
+    assert time.perf_counter() - start < 60  # no hangs
+
+
+@given(st.binary(max_size=300))
+def test_garbage_after_soi(tail):
+    _decode_or_jpeg_error(b"\xff\xd8" + tail)
+
+
+@given(st.binary(max_size=64), st.integers(0, len(SEEDS[0])))
+def test_spliced_garbage(garbage, at):
+    _decode_or_jpeg_error(SEEDS[0][:at] + garbage + SEEDS[0][at:])
+
+
+def _replace_sof(data: bytes, marker: int, precision: int = 8) -> bytes:
+    i = data.index(b"\xff\xc0")
+    return data[:i] + bytes([0xFF, marker, data[i + 2], data[i + 3], precision]) + data[i + 5 :]
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda d: b"GIF89a" + d, "not a JPEG"),
+        (lambda d: d[: len(d) // 2], "truncated"),
+        (lambda d: d[:-2], "truncated"),
+        (lambda d: _replace_sof(d, 0xC2), "progressive"),
+        (lambda d: _replace_sof(d, 0xC9), "arithmetic"),
+        (lambda d: _replace_sof(d, 0xC3), "lossless"),
+        (lambda d: _replace_sof(d, 0xC0, precision=12), "precision 12"),
+        (lambda d: d.replace(b"\xff\xc4\x00\x1f\x00\x00\x01\x05", b"\xff\xc4\x00\x1f\x00\x00\x09\x05"), "Huffman"),
+        (lambda d: d[:2] + d[-2:], "EOI before any image"),
+    ],
+)
+def test_specific_errors(make, message):
+    with pytest.raises(JPEGError, match=message):
+        decode(make(SEEDS[0]))
+
+
+def test_pillow_progressive_is_unsupported():
+    buf = io.BytesIO()
+    Image.fromarray(np.zeros((16, 16, 3), np.uint8)).save(buf, "JPEG", progressive=True)
+    with pytest.raises(JPEGError, match="progressive"):
+        decode(buf.getvalue())
+    assert issubclass(JPEGError, ValueError)

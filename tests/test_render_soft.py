@@ -1,0 +1,191 @@
+"""The soft rasterizer: coverage, tiles vs dense reference, gradients, errors."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from jax.test_util import check_grads
+from matplotlib.path import Path
+
+from gfxlab import render as R
+from gfxlab.mesh import Mesh, icosphere
+from gfxlab.viewing import Camera
+
+
+def pixel_centres(shape):
+    h, w = shape
+    rows, cols = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
+    return np.stack([cols, h - 1 - rows], -1).reshape(-1, 2).astype(float)
+
+
+def star(center, radii, points):
+    angle = np.pi / 2 + np.pi * np.arange(2 * points) / points
+    radius = np.where(np.arange(2 * points) % 2 == 0, radii[0], radii[1])
+    return np.asarray(center) + radius[:, None] * np.stack([np.cos(angle), np.sin(angle)], -1)
+
+
+def test_silhouette_at_small_sigma_is_pixel_centre_coverage():
+    shape = (64, 80)
+    outline = star((41.3, 30.7), (27.0, 11.0), 5)
+    vertices = np.concatenate([[[41.3, 30.7]], outline])  # a fan from the centre
+    n = len(outline)
+    faces = np.stack([np.zeros(n, int), 1 + np.arange(n), 1 + (np.arange(n) + 1) % n], -1)
+    soft = R.soft_silhouette(jnp.asarray(vertices), jnp.asarray(faces), shape, sigma=1e-3)
+    inside = Path(outline).contains_points(pixel_centres(shape)).reshape(shape)
+    agree = np.mean((np.asarray(soft) > 0.5) == inside)
+    assert agree >= 0.995
+    assert 0.1 < inside.mean() < 0.6  # the star is really there
+
+
+def random_scene(rng, faces, shape, spread=6.0):
+    h, w = shape
+    centre = rng.uniform([0, 0], [w, h], (faces, 1, 2))
+    return jnp.asarray((centre + rng.normal(0, spread, (faces, 3, 2))).reshape(-1, 2))
+
+
+@pytest.mark.parametrize("tile_size", [4, 8])
+def test_tiled_silhouette_equals_dense(maybe_jit, tile_size):
+    rng = np.random.default_rng(1)
+    shape = (29, 37)
+    vertices = random_scene(rng, 15, shape)
+    faces = jnp.arange(45).reshape(15, 3)
+    run = maybe_jit(R.soft_silhouette, static_argnames=("shape", "tile_size", "capacity"))
+    tiled = run(vertices, faces, shape, sigma=2.0, tile_size=tile_size, capacity=16)
+    dense = R._dense_soft_silhouette(vertices, faces, shape, sigma=2.0)
+    np.testing.assert_allclose(tiled, dense, atol=1e-6)
+    assert float(dense.max()) > 0.9
+
+
+def sphere_scene():
+    sphere = icosphere(1, radius=0.8)
+    colors = 0.5 + 0.5 * sphere.vertices
+    mesh = Mesh(sphere.vertices + jnp.array([0.1, 0.0, 0.0]), sphere.faces, colors)
+    camera = Camera(jnp.array([0.3, 0.6, 3.0]), near=0.5, far=10.0)
+    return mesh, camera
+
+
+def test_tiled_rasterizer_equals_dense():
+    mesh, camera = sphere_scene()
+    shape = (27, 34)
+    kw = dict(sigma=1.5, gamma=0.05, background=jnp.array([0.2, 0.3, 0.4]),
+              light=jnp.array([1.0, 2.0, 3.0]))
+    rgba, depth = jax.jit(
+        lambda m, c: R.soft_rasterize(m, c, shape, tile_size=8, capacity=80, **kw)
+    )(mesh, camera)
+    rgba_ref, depth_ref = R._dense_soft_rasterize(mesh, camera, shape, **kw)
+    np.testing.assert_allclose(rgba, rgba_ref, atol=1e-6)
+    np.testing.assert_allclose(depth, depth_ref, atol=1e-6)
+    assert rgba.shape == shape + (4,) and depth.shape == shape
+    assert 0.1 < float(rgba[..., 3].mean()) < 0.9
+
+
+def test_soft_converges_to_zbuffer():
+    rng = np.random.default_rng(3)
+    shape = (32, 32)
+    count = 10
+    camera = Camera(jnp.array([0.0, 0.0, 4.0]), near=1.0, far=8.0)
+    # slightly tilted triangles at distinct depths (no interpenetration)
+    centres = np.concatenate(
+        [rng.uniform(-1, 1, (count, 1, 2)), np.linspace(-1, 1, count)[:, None, None]], -1
+    )
+    vertices = centres + rng.normal(0, 0.6, (count, 3, 3)) * np.array([1, 1, 0.02])
+    face_colors = rng.uniform(0, 1, (count, 3))
+    mesh = Mesh(jnp.asarray(vertices.reshape(-1, 3)), jnp.arange(3 * count).reshape(count, 3),
+                jnp.asarray(np.repeat(face_colors, 3, axis=0)))
+    triangles, colors = R.screen_scene(mesh, camera, shape)
+    hard = R.zbuffer(triangles, colors, shape)
+    covered = np.isfinite(np.asarray(hard.depth))
+    assert 0.15 < covered.mean() < 0.9
+    agreement = []
+    for sigma, gamma in [(1.0, 0.1), (1e-5, 1e-3)]:
+        rgba, _ = R.soft_rasterize(mesh, camera, shape, sigma=sigma, gamma=gamma, capacity=16)
+        composite = np.asarray(rgba[..., :3] * rgba[..., 3:])  # over a black background
+        agreement.append(np.mean(np.all(np.abs(composite - np.asarray(hard.image)) < 1e-3, -1)))
+    assert agreement[1] >= 0.99 and agreement[1] > agreement[0]
+    assert np.mean((np.asarray(rgba[..., 3]) > 0.5) == covered) >= 0.99
+
+
+def test_check_grads_of_the_soft_rasterizer():
+    vertices = jnp.array([[-0.5, -0.4, 0.0], [0.6, -0.3, 0.1], [0.0, 0.6, -0.1],
+                          [-0.2, -0.1, 0.3], [0.5, 0.3, 0.4], [-0.3, 0.5, 0.2]])
+    faces = jnp.array([[0, 1, 2], [3, 4, 5]])
+    colors = jnp.array([[1.0, 0.2, 0.1], [0.9, 0.8, 0.1], [0.1, 0.9, 0.5],
+                        [0.2, 0.3, 1.0], [0.5, 0.1, 0.9], [0.3, 0.7, 0.2]])
+    eye = jnp.array([0.2, 0.1, 2.5])
+
+    @jax.jit
+    def render(vertices, colors, eye):
+        camera = Camera(eye, near=0.5, far=5.0)
+        rgba, depth = R.soft_rasterize(Mesh(vertices, faces, colors), camera, (8, 8),
+                                       sigma=3.0, gamma=0.2, eps=1e-12, tile_size=4,
+                                       capacity=2)
+        return rgba, depth
+
+    check_grads(render, (vertices, colors, eye), order=1, modes=("rev",), eps=1e-6,
+                rtol=1e-4, atol=1e-6)
+
+
+def test_gradients_stay_finite_in_degenerate_cases():
+    vertices = jnp.array([
+        [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0],  # a triangle shrunk to a point
+        [-0.5, 0.1, 0.0], [0.0, 0.1, 0.0], [0.5, 0.1, 0.0],  # collinear corners
+        [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0],  # edges through pixel centres
+        [0.0, 0.0, 0.5], [0.3, 0.0, 5.0], [0.0, 0.3, 0.5],  # a corner behind the camera
+    ])
+    faces = jnp.arange(12).reshape(4, 3)
+    camera = Camera(jnp.array([0.0, 0.0, 2.0]), near=0.5, far=10.0)
+
+    def loss(vertices, eye):
+        cam = Camera(eye, near=0.5, far=10.0)
+        rgba, depth = R.soft_rasterize(Mesh(vertices, faces), cam, (9, 9), sigma=0.5,
+                                       gamma=0.1, capacity=4)
+        return jnp.sum(rgba) + 0.01 * jnp.sum(depth)
+
+    grads = jax.jit(jax.grad(loss, argnums=(0, 1)))(vertices, camera.eye)
+    assert all(bool(jnp.all(jnp.isfinite(g))) for g in grads)
+    assert float(jnp.abs(grads[0][6:9]).sum()) > 0  # the proper triangle moves the image
+    # the 2D silhouette too, with vertices exactly on pixel centres
+    pts = jnp.array([[2.0, 2.0], [6.0, 2.0], [2.0, 6.0], [4.0, 4.0], [4.0, 4.0], [5.0, 5.0]])
+    g = jax.grad(lambda p: jnp.sum(R.soft_silhouette(p, jnp.array([[0, 1, 2], [3, 4, 5]]),
+                                                     (9, 9), sigma=0.5)))(pts)
+    assert bool(jnp.all(jnp.isfinite(g)))
+
+
+def test_overflowing_tile_raises():
+    vertices = jnp.array([[2.0, 2.0], [12.0, 3.0], [5.0, 11.0]] * 5)
+    faces = jnp.arange(15).reshape(5, 3)
+    with pytest.raises(ValueError, match="capacity"):
+        R.soft_silhouette(vertices, faces, (16, 16), sigma=1.0, capacity=4)
+    jitted = jax.jit(lambda v: R.soft_silhouette(v, faces, (16, 16), sigma=1.0, capacity=4))
+    with pytest.raises(Exception, match="capacity"):  # equinox's run-time error under jit
+        jax.block_until_ready(jitted(vertices))
+    # enough capacity: fine
+    assert R.soft_silhouette(vertices, faces, (16, 16), sigma=1.0, capacity=5).shape == (16, 16)
+
+
+def test_bad_inputs():
+    vertices = jnp.array([[1.0, 1.0], [5.0, 1.0], [1.0, 5.0]])
+    faces = jnp.array([[0, 1, 2]])
+    with pytest.raises(ValueError, match="faces"):
+        R.soft_silhouette(vertices, jnp.array([[0, 1, 3]]), (8, 8), sigma=1.0)
+    with pytest.raises(ValueError, match="faces"):
+        R.soft_silhouette(vertices, jnp.array([0, 1, 2]), (8, 8), sigma=1.0)
+    with pytest.raises(ValueError, match="vertices_2d"):
+        R.soft_silhouette(jnp.zeros((3, 3)), faces, (8, 8), sigma=1.0)
+    with pytest.raises(ValueError, match="sigma"):
+        R.soft_silhouette(vertices, faces, (8, 8), sigma=0.0)
+    with pytest.raises(ValueError, match="shape"):
+        R.soft_silhouette(vertices, faces, (8,), sigma=1.0)
+    with pytest.raises(ValueError, match="tile_size"):
+        R.soft_silhouette(vertices, faces, (8, 8), sigma=1.0, tile_size=0)
+    mesh, camera = sphere_scene()
+    with pytest.raises(ValueError, match="gamma"):
+        R.soft_rasterize(mesh, camera, (8, 8), sigma=1.0, gamma=-1.0)
+    with pytest.raises(ValueError, match="sigma"):
+        R.soft_rasterize(mesh, camera, (8, 8), sigma=-1.0, gamma=1.0)
+    with pytest.raises(TypeError, match="mesh"):
+        R.soft_rasterize(vertices, camera, (8, 8), sigma=1.0, gamma=1.0)
+    with pytest.raises(TypeError, match="camera"):
+        R.soft_rasterize(mesh, None, (8, 8), sigma=1.0, gamma=1.0)
+    with pytest.raises(ValueError, match="background"):
+        R.soft_rasterize(mesh, camera, (8, 8), sigma=1.0, gamma=1.0, background=jnp.zeros(2))
