@@ -285,18 +285,24 @@ def cook_torrance(
 ) -> Float[Array, "*batch"]:
     """Cook-Torrance microfacet BRDF with GGX, Smith masking and Schlick Fresnel.
 
-    `f = kd / pi + D(h) G(wi, wo) F(wi . h) / (4 cos_i cos_o)` with
+    `f = f_d + D(h) G(wi, wo) F(wi . h) / (4 cos_i cos_o)` with
     `alpha = roughness^2` (clamped to at least `MIN_ALPHA`), `D` = `ggx_distribution`,
     `G` the height-correlated Smith term (`smith_visibility` folds in the
-    denominator) and `F` = `schlick_fresnel`. Reciprocal. Single scattering only, so
-    energy is lost at high roughness.
+    denominator) and `F` = `schlick_fresnel`. Single scattering only, so energy is
+    lost at high roughness.
+
+    The optional diffuse base is Ashikhmin and Shirley's coupled term
+    `f_d = kd 28 / (23 pi) (1 - f0) (1 - (1 - cos_i / 2)^5) (1 - (1 - cos_o / 2)^5)`,
+    which takes out what the specular layer reflects (a plain `kd / pi` added to it
+    would reflect more than all the light at grazing angles). Both terms are
+    reciprocal.
 
     **Arguments:**
 
     - `wi`, `wo`, `n`: `(..., 3)` unit vectors (light, view, normal).
     - `roughness`: perceptual roughness, >= 0 (about 0.05 polished .. 1 rough).
     - `f0`: reflectance at normal incidence in [0, 1] (0.04 for most dielectrics).
-    - `kd`: diffuse albedo in [0, 1] added as a Lambert term.
+    - `kd`: diffuse albedo in [0, 1] of the coupled diffuse base.
 
     **Returns:** `(...)` BRDF values in 1/sr, 0 outside the upper hemisphere.
     """
@@ -313,7 +319,12 @@ def cook_torrance(
         * smith_visibility(cos_i, cos_o, alpha)
         * schlick_fresnel(_dot(wi, half), f0)
     )
-    return _diffuse(kd, valid, wi.dtype) + jnp.where(valid, specular, 0.0)
+    ci, co = jnp.clip(cos_i, 0.0, 1.0), jnp.clip(cos_o, 0.0, 1.0)
+    diffuse = (
+        kd * 28.0 / (23.0 * jnp.pi) * (1.0 - f0)
+        * (1.0 - (1.0 - 0.5 * ci) ** 5) * (1.0 - (1.0 - 0.5 * co) ** 5)
+    )
+    return jnp.where(valid, diffuse + specular, 0.0)
 
 
 # --------------------------------------------------------------------------- containers
@@ -500,8 +511,16 @@ def directional_albedo(
     wo_flat = jnp.broadcast_to(wo, batch).reshape(-1, 3)
     n_flat = jnp.broadcast_to(n, batch).reshape(-1, 3)
     local, weights = _albedo_grid(num_theta, num_phi, np.dtype(dtype))
-    local, weights = jnp.asarray(local), jnp.asarray(weights)
+    # Check the directions once up front, with the caller's names in the message.
+    wo_flat, _, n_flat = _directions(wo_flat, wo_flat, n_flat)
+    albedo = _albedo_quadrature(brdf, wo_flat, n_flat, jnp.asarray(local), jnp.asarray(weights))
+    return albedo.reshape(batch[:-1])
 
+
+@eqx.filter_jit
+def _albedo_quadrature(brdf, wo, n, local, weights):
+    # Compiled once per BRDF structure (a model's parameters are traced leaves), and
+    # mapped over the view directions to keep memory at one quadrature grid.
     def one(pair):
         w_o, normal = pair
         axis = _normalize(reflect(w_o, normal))
@@ -511,9 +530,7 @@ def directional_albedo(
         values = brdf(wi, jnp.broadcast_to(w_o, wi.shape), jnp.broadcast_to(normal, wi.shape))
         return jnp.sum(values * cos_i * weights)
 
-    # Check the directions once up front, with the caller's names in the message.
-    wo_flat, _, n_flat = _directions(wo_flat, wo_flat, n_flat)
-    return jax.lax.map(one, (wo_flat, n_flat)).reshape(batch[:-1])
+    return jax.lax.map(one, (wo, n))
 
 
 # --------------------------------------------------------------------------- rendering

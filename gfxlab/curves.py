@@ -418,7 +418,7 @@ def _spans(knots: jax.Array, degree: int, n: int, u: jax.Array) -> jax.Array:
     valid = (knots[1:] > knots[:-1]) & (index >= degree) & (index <= n - 1)
     first = jnp.argmax(valid)
     last = m - 1 - jnp.argmax(valid[::-1])
-    span = jnp.searchsorted(knots, u, side="right") - 1
+    span = jnp.searchsorted(knots, u, side="right", method="scan_unrolled") - 1
     return jnp.clip(span, first, last)
 
 
@@ -1082,8 +1082,9 @@ def fit_bspline(
     lo, hi = knots[p], knots[n]
     if parameters is None:
         parameters = lo + (hi - lo) * chord_length_parameters(points)
-    parameters = _check_in_range(as_float(parameters, "parameters").astype(points.dtype),
-                                 knots, p, n)
+    parameters = _check_in_range(
+        as_float(parameters, "parameters").astype(points.dtype), knots, p, n, "parameters"
+    )
     check_shape(parameters, "parameters", (points.shape[0],))
     start = _resample(points, parameters, n)
 

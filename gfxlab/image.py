@@ -910,8 +910,8 @@ def median_filter(
 
 
 def _correlate_separable(padded, shape_hw, kernels):
-    height, width = shape_hw
     """Correlate the last two axes of `padded` with a row kernel and a column kernel."""
+    height, width = shape_hw
     rows = sum(w * padded[..., i : i + height, :] for i, w in enumerate(kernels[0]))
     return sum(w * rows[..., j : j + width] for j, w in enumerate(kernels[1]))
 
@@ -948,6 +948,12 @@ def mean_filter(
     image = as_float(_check_filter_image(image), "image")
     mode = _check_mode(mode)
     kh, kw = _window_size(size)
+    return _mean_filter(image, jnp.asarray(cval), size=(kh, kw), mode=mode)
+
+
+@functools.partial(jax.jit, static_argnames=("size", "mode"))
+def _mean_filter(image, cval, *, size, mode):
+    kh, kw = size
     kernels = ([1.0 / kh] * kh, [1.0 / kw] * kw)
     return _on_planes(
         lambda x: _correlate_separable(_pad(x, (kh, kw), mode, cval), image.shape[:2], kernels),
@@ -1002,6 +1008,11 @@ def gaussian_filter(
     sigma = jnp.broadcast_to(as_float(sigma, "sigma").astype(image.dtype), (2,))
     if traced:
         sigma = value_error_if(sigma, ~(sigma > 0), "`sigma` must be > 0")
+    return _gaussian_filter(image, sigma, jnp.asarray(cval), radii=radii, mode=mode)
+
+
+@functools.partial(jax.jit, static_argnames=("radii", "mode"))
+def _gaussian_filter(image, sigma, cval, *, radii, mode):
     kernels = []
     for axis, r in enumerate(radii):
         x = jnp.arange(-r, r + 1, dtype=image.dtype)

@@ -176,10 +176,66 @@ def _line_setup(p0, p1):
 
 
 def _assemble_line(start, x_major, major_offset, minor_offset):
+    # NumPy offsets (static lines) stay in NumPy: eager JAX ops would compile per length.
+    xp = np if isinstance(major_offset, np.ndarray) else jnp
     x0, y0 = start
     if x_major:
-        return jnp.stack([x0 + major_offset, y0 + minor_offset], axis=-1).astype(_INT)
-    return jnp.stack([x0 + minor_offset, y0 + major_offset], axis=-1).astype(_INT)
+        xy = xp.stack([x0 + major_offset, y0 + minor_offset], axis=-1)
+    else:
+        xy = xp.stack([x0 + minor_offset, y0 + major_offset], axis=-1)
+    return jax.device_put(xy.astype(np.int32)) if xp is np else xy.astype(_INT)
+
+
+def _dda_offsets(d_major, d_minor, k, xp=jnp):
+    """DDA minor offsets after `k` major steps: `k dminor / dmajor` rounded half up.
+
+    The float quotient of two small integers is exact at every half-way point, so ties
+    always round away from the start.
+    """
+    dtype = np.float64 if xp is np else jnp.result_type(float)
+    frac = (k * d_minor).astype(dtype) / xp.maximum(d_major, 1)
+    return xp.floor(frac + 0.5).astype(k.dtype)
+
+
+def _bresenham_offsets(d_major, d_minor, k):
+    """Bresenham minor offsets after `k` major steps (closed form of the recurrence)."""
+    return (2 * k * d_minor + d_major) // np.maximum(2 * d_major, 1)
+
+
+def _dda_scan(d_major, d_minor, length: int):
+    """Stepwise DDA along (major, minor): per step add the increments, then round.
+
+    The increments `1` and `dminor / dmajor` are kept as exact fixed-point numerators
+    over `dmajor` (an integer add per step), so no round-off accumulates.
+    """
+    denom = jnp.maximum(d_major, 1)
+    float_dtype = jnp.result_type(float)
+
+    def step(carry, _):
+        major_num, minor_num = carry  # positions times `denom`
+        major = jnp.floor(major_num.astype(float_dtype) / denom + 0.5).astype(_INT)
+        minor = jnp.floor(minor_num.astype(float_dtype) / denom + 0.5).astype(_INT)
+        return (major_num + d_major, minor_num + d_minor), (major, minor)
+
+    init = (jnp.asarray(0, _INT), jnp.asarray(0, _INT))
+    _, (major, minor) = jax.lax.scan(step, init, None, length=length)
+    return major, minor
+
+
+def _bresenham_scan(d_major, d_minor, length: int):
+    """Textbook Bresenham along (major, minor) with the integer decision parameter."""
+
+    def step(carry, _):
+        major, minor, p = carry
+        up = p >= 0
+        next_minor = jnp.where(up, minor + 1, minor)
+        next_p = jnp.where(up, p - 2 * d_major, p) + 2 * d_minor
+        return (major + 1, next_minor, next_p), (major, minor)
+
+    init = (jnp.asarray(0, _INT), jnp.asarray(0, _INT),
+            jnp.asarray(2 * d_minor - d_major, _INT))
+    _, (major, minor) = jax.lax.scan(step, init, None, length=length)
+    return major, minor
 
 
 def line_dda(p0: tuple[int, int], p1: tuple[int, int]) -> Int[Array, "N 2"]:
@@ -188,7 +244,8 @@ def line_dda(p0: tuple[int, int], p1: tuple[int, int]) -> Int[Array, "N 2"]:
     Steps one pixel at a time along the major axis (the one with the larger change)
     and moves `dminor / dmajor` along the other, rounding to the nearest pixel; an
     exact tie (a half-way point) rounds away from `p0`, so the result equals
-    Bresenham's line (and `skimage.draw.line`) pixel for pixel.
+    Bresenham's line (and `skimage.draw.line`) pixel for pixel. The endpoints are
+    static, so the pixels are a constant of the trace, computed in NumPy.
 
     **Arguments:**
 
@@ -198,13 +255,8 @@ def line_dda(p0: tuple[int, int], p1: tuple[int, int]) -> Int[Array, "N 2"]:
     included, `N = max(|dx|, |dy|) + 1`.
     """
     start, x_major, d_major, d_minor, s_major, s_minor = _line_setup(p0, p1)
-    k = jnp.arange(d_major + 1)
-    if d_major == 0:
-        return _assemble_line(start, x_major, k * 0, k * 0)
-    # The DDA position k * dminor / dmajor, rounded half up (away from p0). The float
-    # quotient of two small integers is exact at every half-way point.
-    frac = (k * d_minor).astype(jnp.result_type(float)) / d_major
-    minor = jnp.floor(frac + 0.5).astype(_INT)
+    k = np.arange(d_major + 1, dtype=np.int64)
+    minor = _dda_offsets(d_major, d_minor, k, np)
     return _assemble_line(start, x_major, s_major * k, s_minor * minor)
 
 
@@ -217,17 +269,7 @@ def line_dda_steps(p0: tuple[int, int], p1: tuple[int, int]) -> Int[Array, "N 2"
     Same arguments and result as `line_dda`.
     """
     start, x_major, d_major, d_minor, s_major, s_minor = _line_setup(p0, p1)
-    denom = max(d_major, 1)
-    float_dtype = jnp.result_type(float)
-
-    def step(carry, _):
-        major_num, minor_num = carry  # positions times `denom`
-        major = jnp.floor(major_num.astype(float_dtype) / denom + 0.5).astype(_INT)
-        minor = jnp.floor(minor_num.astype(float_dtype) / denom + 0.5).astype(_INT)
-        return (major_num + d_major, minor_num + d_minor), (major, minor)
-
-    init = (jnp.asarray(0, _INT), jnp.asarray(0, _INT))
-    _, (major, minor) = jax.lax.scan(step, init, None, length=d_major + 1)
+    major, minor = _dda_scan(d_major, d_minor, d_major + 1)
     return _assemble_line(start, x_major, s_major * major, s_minor * minor)
 
 
@@ -238,6 +280,7 @@ def line_bresenham(p0: tuple[int, int], p1: tuple[int, int]) -> Int[Array, "N 2"
     minor coordinate `floor((2 k dminor + dmajor) / (2 dmajor))` pixels: the closed
     form of its integer recurrence (`line_bresenham_steps`). A decision parameter of
     exactly zero steps the minor coordinate, as in the textbook (`p_k < 0` keeps it).
+    The endpoints are static, so the pixels are a constant of the trace (NumPy).
 
     **Arguments:**
 
@@ -247,8 +290,8 @@ def line_bresenham(p0: tuple[int, int], p1: tuple[int, int]) -> Int[Array, "N 2"
     included, `N = max(|dx|, |dy|) + 1`.
     """
     start, x_major, d_major, d_minor, s_major, s_minor = _line_setup(p0, p1)
-    k = jnp.arange(d_major + 1, dtype=_INT)
-    minor = (2 * k * d_minor + d_major) // max(2 * d_major, 1)
+    k = np.arange(d_major + 1, dtype=np.int64)
+    minor = _bresenham_offsets(d_major, d_minor, k)
     return _assemble_line(start, x_major, s_major * k, s_minor * minor)
 
 
@@ -260,16 +303,7 @@ def line_bresenham_steps(p0: tuple[int, int], p1: tuple[int, int]) -> Int[Array,
     `p += 2 dminor`. Same arguments and result as `line_bresenham`.
     """
     start, x_major, d_major, d_minor, s_major, s_minor = _line_setup(p0, p1)
-
-    def step(carry, _):
-        major, minor, p = carry
-        up = p >= 0
-        next_minor = jnp.where(up, minor + 1, minor)
-        next_p = jnp.where(up, p - 2 * d_major, p) + 2 * d_minor
-        return (major + 1, next_minor, next_p), (major, minor)
-
-    init = (jnp.asarray(0, _INT), jnp.asarray(0, _INT), jnp.asarray(2 * d_minor - d_major, _INT))
-    _, (major, minor) = jax.lax.scan(step, init, None, length=d_major + 1)
+    major, minor = _bresenham_scan(d_major, d_minor, d_major + 1)
     return _assemble_line(start, x_major, s_major * major, s_minor * minor)
 
 
@@ -278,23 +312,36 @@ def line_bresenham_steps(p0: tuple[int, int], p1: tuple[int, int]) -> Int[Array,
 # --------------------------------------------------------------------------------------
 
 
-def _isqrt(n: jax.Array) -> jax.Array:
-    """Exact integer square root `floor(sqrt(n))` of non-negative int32 values."""
-    n = jnp.maximum(n, 0)
-    s = jnp.floor(jnp.sqrt(n.astype(jnp.result_type(float)))).astype(_INT)
-    s = jnp.where((s + 1) * (s + 1) <= n, s + 1, s)  # fix float rounding either way
-    return jnp.where(s * s > n, s - 1, s)
+def _isqrt(n, xp=jnp):
+    """Exact integer square root `floor(sqrt(n))` of non-negative int32 values.
+
+    `xp` is `numpy` or `jax.numpy`: the closed forms below run in NumPy when their inputs
+    are static (a constant of the trace, no compilation) and in JAX when traced.
+    """
+    n = xp.maximum(n, 0)
+    s = xp.floor(xp.sqrt(n.astype(np.float64 if xp is np else jnp.result_type(float))))
+    s = s.astype(n.dtype)
+    s = xp.where((s + 1) * (s + 1) <= n, s + 1, s)  # fix float rounding either way
+    return xp.where(s * s > n, s - 1, s)
 
 
-def _circle_octant_y(radius, x):
+def _circle_octant_y(radius, x, xp=jnp):
     """y of the midpoint circle at column x (first octant), the closed form of its steps.
 
     The textbook recurrence keeps the midpoint below the chosen pixel inside the circle
     and the one above it outside or on it: `(2y - 1)^2 < 4 (r^2 - x^2) <= (2y + 1)^2`.
     """
     m = 4 * (radius * radius - x * x)
-    s = jnp.where(m >= 1, _isqrt(m - 1), -1)  # largest s with s^2 < m
+    s = xp.where(m >= 1, _isqrt(m - 1, xp), -1)  # largest s with s^2 < m
     return (s + 1) // 2
+
+
+def _static_circle_octant(radius: int) -> np.ndarray:
+    """First-octant pixels `(x, y)` with `x <= y` of the midpoint circle (NumPy)."""
+    x = np.arange(radius + 1, dtype=np.int64)
+    y = _circle_octant_y(np.int64(radius), x, np)
+    octant = np.stack([x, y], -1)
+    return octant[x <= y]
 
 
 def _check_radius(radius, name: str, maximum: int) -> int:
@@ -304,13 +351,21 @@ def _check_radius(radius, name: str, maximum: int) -> int:
     return radius
 
 
-def _check_center(center) -> jax.Array:
-    center = jnp.asarray(center)
+def _check_center(center):
+    """An integer centre: NumPy when concrete, a JAX array when traced."""
+    center = center if isinstance(center, jax.Array) else np.asarray(center)
     check_shape(center, "center", (2,))
     if not jnp.issubdtype(center.dtype, jnp.integer):
         raise TypeError(f"`center` must be integer pixel coordinates (x, y), got dtype "
                         f"{center.dtype}")
-    return center.astype(_INT)
+    return center
+
+
+def _offset(points: np.ndarray, center) -> jax.Array:
+    """`points + center` as int32; in NumPy unless the centre is traced (no compiles)."""
+    if isinstance(center, jax.core.Tracer):
+        return jnp.asarray(points, _INT) + center.astype(_INT)
+    return jax.device_put((points + np.asarray(center)).astype(np.int32))
 
 
 def _symmetric_loop(path: np.ndarray) -> np.ndarray:
@@ -342,7 +397,7 @@ def _circle_from_octant(octant: np.ndarray, radius: int, center: jax.Array) -> j
         loop = np.zeros((1, 2), np.int32)
     else:
         loop = _symmetric_loop(_circle_quadrant_path(octant))
-    return jnp.asarray(loop, _INT) + center
+    return _offset(loop, center)
 
 
 def midpoint_circle(radius: int, *, center: tuple[int, int] = (0, 0)) -> Int[Array, "N 2"]:
@@ -365,12 +420,8 @@ def midpoint_circle(radius: int, *, center: tuple[int, int] = (0, 0)) -> Int[Arr
     """
     radius = _check_radius(radius, "radius", MAX_CIRCLE_RADIUS)
     center = _check_center(center)
-    with jax.ensure_compile_time_eval():  # the pixel set depends only on static ints
-        x = jnp.arange(radius + 1, dtype=_INT)
-        y = _circle_octant_y(jnp.asarray(radius, _INT), x)
-        octant = np.stack([np.asarray(x), np.asarray(y)], -1)
-    octant = octant[octant[:, 0] <= octant[:, 1]]
-    return _circle_from_octant(octant, radius, center)
+    # The pixels depend only on static ints: a constant of the trace, computed in NumPy.
+    return _circle_from_octant(_static_circle_octant(radius), radius, center)
 
 
 def _circle_trace_scan(radius: int, length: int) -> jax.Array:
@@ -393,10 +444,8 @@ def _circle_trace_scan(radius: int, length: int) -> jax.Array:
 
 def _circle_num_steps(radius: int) -> int:
     """Steps of the midpoint loop `while x < y` (x_k = k): the columns with x < y(x)."""
-    with jax.ensure_compile_time_eval():
-        x = jnp.arange(radius + 1, dtype=_INT)
-        y = _circle_octant_y(jnp.asarray(radius, _INT), x)
-        return int(jnp.sum(x < y))
+    octant = _static_circle_octant(radius)
+    return int(np.sum(octant[:, 0] < octant[:, 1]))
 
 
 def midpoint_circle_trace(radius: int) -> Int[Array, "K 4"]:
@@ -506,7 +555,7 @@ def _ellipse_trace_scan(rx, ry, length: int) -> jax.Array:
     return rows
 
 
-def _ellipse_closed_form(rx, ry, length: int) -> tuple[jax.Array, jax.Array]:
+def _ellipse_closed_form(rx, ry, length: int, xp=jnp):
     """The midpoint ellipse's first-quadrant pixels in closed form (fixed size + mask).
 
     Region 1 (x = k): `g(x)` is the y that keeps the midpoint below inside and the one
@@ -517,28 +566,30 @@ def _ellipse_closed_form(rx, ry, length: int) -> tuple[jax.Array, jax.Array]:
     `x_{j+1} = clip(h(y_{j+1}), x_j, x_j + 1)`, which (as x never has to move by more
     than one pixel in region 2) is `max(x_start, h(y))`.
     """
-    rx = jnp.asarray(rx, _INT)
-    ry = jnp.asarray(ry, _INT)
+    dtype = np.int64 if xp is np else _INT
+    rx = xp.asarray(rx, dtype)
+    ry = xp.asarray(ry, dtype)
     rx2, ry2 = rx * rx, ry * ry
-    k = jnp.arange(length, dtype=_INT)
+    k = xp.arange(length, dtype=dtype)
     # g(x): largest y with rx^2 (2y - 1)^2 < 4 ry^2 (rx^2 - x^2) =: M
     m = 4 * ry2 * (rx2 - k * k)
-    t = jnp.where(m >= 1, _isqrt((m - 1) // rx2), -1)
+    t = xp.where(m >= 1, _isqrt((m - 1) // rx2, xp), -1)
     g = (t + 1) // 2
-    y1 = jax.lax.cummax(g + k) - k
+    cummax = np.maximum.accumulate if xp is np else jax.lax.cummax
+    y1 = cummax(g + k) - k
     stop = ry2 * k >= rx2 * y1
-    k_end = jnp.argmax(stop)  # region 1 has points k = 0..k_end
+    k_end = xp.argmax(stop)  # region 1 has points k = 0..k_end
     x_start, y_start = k_end, y1[k_end]
     # Region 2: y = y_start - j for j = 1..y_start
     y2 = y_start - (k + 1)
     n = 4 * rx2 * (ry2 - y2 * y2)
-    u = _isqrt(jnp.maximum(n, 0) // ry2)
+    u = _isqrt(xp.maximum(n, 0) // ry2, xp)
     h = (u + 1) // 2
-    x2 = jnp.maximum(x_start, h)
-    xs = jnp.concatenate([k, x2])
-    ys = jnp.concatenate([y1, y2])
-    valid = jnp.concatenate([k <= k_end, y2 >= 0])
-    return jnp.stack([xs, ys], -1), valid
+    x2 = xp.maximum(x_start, h)
+    xs = xp.concatenate([k, x2])
+    ys = xp.concatenate([y1, y2])
+    valid = xp.concatenate([k <= k_end, y2 >= 0])
+    return xp.stack([xs, ys], -1), valid
 
 
 def midpoint_ellipse(
@@ -559,10 +610,10 @@ def midpoint_ellipse(
     """
     rx, ry = _check_ellipse_radii(rx, ry)
     center = _check_center(center)
-    with jax.ensure_compile_time_eval():
-        points, valid = _ellipse_closed_form(rx, ry, max(rx, ry) + 1)
-        path = np.asarray(points)[np.asarray(valid)]
-    return jnp.asarray(_symmetric_loop(path), _INT) + center
+    # The pixels depend only on static ints: a constant of the trace, computed in NumPy.
+    points, valid = _ellipse_closed_form(rx, ry, max(rx, ry) + 1, np)
+    path = points[valid]
+    return _offset(_symmetric_loop(path), center)
 
 
 def _ellipse_trace_rows(rx: int, ry: int) -> np.ndarray:
@@ -609,7 +660,7 @@ def midpoint_ellipse_steps(
     center = _check_center(center)
     rows = _ellipse_trace_rows(rx, ry)
     path = np.concatenate([np.array([[0, ry]]), rows[:, 4:6]])
-    return jnp.asarray(_symmetric_loop(path), _INT) + center
+    return _offset(_symmetric_loop(path), center)
 
 
 # --------------------------------------------------------------------------------------

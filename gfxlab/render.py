@@ -452,6 +452,9 @@ def _prepare_scene(triangles, colors, shape, background):
         )
     background = as_float(background, "background").astype(colors.dtype)
     check_shape(background, "background", (colors.shape[1],))
+    if triangles.shape[0] == 0:  # an empty scene: one skipped placeholder keeps shapes valid
+        triangles = jnp.full((1, 3, 3), jnp.nan, triangles.dtype)
+        colors = jnp.zeros((1, colors.shape[1]), colors.dtype)
     finite = jnp.all(jnp.isfinite(triangles), axis=(1, 2))
     triangles = jnp.where(finite[:, None, None], triangles, 0.0)
     xy = triangles[..., :2]
@@ -469,7 +472,7 @@ def _edge_functions(points, triangles):
     rel = points[..., None, None, :] - start
     fn = _cross(edge, rel)  # (..., F, 3)
     safe = jnp.where(area2 != 0, area2, 1.0)
-    bary = jnp.roll(fn, 1, axis=-1) / safe[:, None]
+    bary = jnp.roll(fn, -1, axis=-1) / safe[:, None]  # corner k: edge k + 1
     depth = jnp.sum(bary * triangles[..., 2], -1)
     return fn * jnp.sign(area2)[:, None], depth
 

@@ -27,11 +27,11 @@ def random_knots(rng, degree, count):
 
 def test_bspline_matches_scipy_random_knots():
     rng = np.random.default_rng(0)
-    for trial in range(16):
+    count = 8  # fixed sizes keep compilations few: one per degree
+    for trial in range(15):
         degree = 1 + trial % 5
-        count = degree + 1 + int(rng.integers(0, 7))
         knots = random_knots(rng, degree, count)
-        cp = rng.normal(size=(count, 2 + trial % 2))
+        cp = rng.normal(size=(count, 2))
         lo, hi = knots[degree], knots[count]
         # Ends, every knot in range, and random points in between (padded to one shape).
         inner = knots[(knots >= lo) & (knots <= hi)]
@@ -86,15 +86,14 @@ def test_local_control():
     assert changed.any()
 
 
-@settings(max_examples=30)
+@settings(max_examples=40)
 @given(
     degree=st.integers(0, 4),
-    extra=st.integers(0, 3),
     u01=hnp.arrays(np.float64, 16, elements=st.floats(0, 1)),
     data=st.data(),
 )
-def test_bspline_partition_of_unity_and_local_convex_hull(degree, extra, u01, data):
-    count = degree + 1 + extra
+def test_bspline_partition_of_unity_and_local_convex_hull(degree, u01, data):
+    count = 6
     gaps = data.draw(hnp.arrays(np.float64, count + degree, elements=st.sampled_from(
         [0.0, 0.5, 1.0, 2.0])))
     knots = np.concatenate([[0.0], np.cumsum(gaps)])
@@ -112,7 +111,7 @@ def test_bspline_partition_of_unity_and_local_convex_hull(degree, extra, u01, da
     assert np.all(last - first <= degree)
     # ...and lies in their convex hull (support-function test).
     cp = data.draw(hnp.arrays(np.float64, (count, 2), elements=st.floats(-5, 5)))
-    points = np.asarray(curves.bspline(cp, degree, u, knots=knots))
+    points = basis @ cp  # bspline == bspline_basis @ cp is tested against SciPy above
     angles = np.linspace(0, 2 * np.pi, 16, endpoint=False)
     directions = np.stack([np.cos(angles), np.sin(angles)], axis=1)
     for point, i, j in zip(points, first, last, strict=True):
@@ -133,7 +132,8 @@ def test_bspline_batch_jit_and_vmap(maybe_jit):
 
 
 def test_bspline_gradients():
-    knots = jnp.array([0, 0, 0, 0.3, 0.5, 0.55, 0.8, 1, 1, 1.0])
+    # Distinct knots: the numerical derivative perturbs them, and must keep their order.
+    knots = jnp.array([-0.3, -0.2, -0.1, 0.3, 0.5, 0.55, 0.8, 1.1, 1.2, 1.3])
     cp = jnp.asarray(np.random.default_rng(4).normal(size=(7, 2)))
     u = jnp.array([0.1, 0.42, 0.6, 0.9])  # away from knots, so spans stay put
     check_grads(jax.jit(lambda c, t, v: curves.bspline(c, 2, v, knots=t)), (cp, knots, u),
@@ -200,7 +200,7 @@ def test_bspline_bad_input():
     with pytest.raises(RuntimeError, match="parameter range"):
         jax.block_until_ready(eqx.filter_jit(curves.bspline)(cp, 2, jnp.array([-0.5])))
     with pytest.raises(ValueError, match="empty parameter range"):
-        curves.bspline(cp, 1, jnp.array([0.0]), knots=jnp.array([0, 0, 0, 0, 1.0, 1, 1]))
+        curves.bspline(cp, 1, jnp.array([0.0]), knots=jnp.array([0, 0, 0, 0, 0, 1.0]))
     with pytest.raises(TypeError, match="`degree`"):
         jax.jit(curves.bspline)(cp, 2, jnp.array([0.5]))
     with pytest.raises(ValueError, match="too high for 4 knots"):

@@ -20,11 +20,11 @@ from gfxlab.grading import (
     Sandbox,
     assign,
     check_array,
+    codec,
     detect_protections,
     parse_notebook,
     strip_solutions,
 )
-from gfxlab.grading import codec
 from gfxlab.grading.authoring import new_cell, new_notebook, write_notebook
 from gfxlab.grading.cli import main
 
@@ -35,7 +35,7 @@ SOURCES = {
     "bezier": ASSIGNMENTS / "03_bezier.ipynb",
     "jpeg_block": ASSIGNMENTS / "04_jpeg_block.ipynb",
 }
-LIMITS = dict(call_timeout=5.0, exec_timeout=10.0, memory_mb=3072, output_mb=4)
+LIMITS = dict(call_timeout=30.0, exec_timeout=30.0, memory_mb=3072, output_mb=4)
 # One deliberate bug per assignment: (text in the reference, replacement, question hit).
 BUGS = {
     "midpoint_circle": ("rows.append((p, x, y))", "rows.append((p + 1, x, y))", "q1"),
@@ -285,7 +285,7 @@ def test_cli_grade_check_and_folder(built, tmp_path, capsys):
 
     out = tmp_path / "results.json"
     assert main("grade", [str(ref), "--autograder", str(result.autograder), "--out", str(out),
-                          "--timeout", "5"]) == 0
+                          "--timeout", "20"]) == 0
     printed = capsys.readouterr().out
     assert "total     15.00" in printed
     report = json.loads(out.read_text())
@@ -317,3 +317,13 @@ def write_notebook_cells(cells, path):
     nb = new_notebook(cells=[new_cell("code", c) for c in cells])
     write_notebook(nb, path)
     return path
+
+
+@grading
+def test_grader_finishes_when_the_student_process_cannot_start(built):
+    grader = Autograder(built["jpeg_block"].autograder)
+    result = grader.grade_cells(grader.solution_cells(),
+                                limits=dict(start_timeout=0.001, max_restarts=1))
+    assert result.score == 0 and len(result.questions) == 3
+    assert any("did not start" in n for n in result.notes)
+    assert any("crashed too often" in n for n in result.notes)

@@ -19,7 +19,16 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from .._checks import as_float, check_shape, common_float, safe_divide, value_error_if
-from .quaternions import quat_normalize, quat_to_matrix, slerp, squad, squad_inner
+from .quaternions import (
+    quat_conjugate,
+    quat_exp,
+    quat_log,
+    quat_multiply,
+    quat_normalize,
+    quat_to_matrix,
+    slerp,
+    squad,
+)
 
 __all__ = [
     "EASINGS",
@@ -277,7 +286,7 @@ def interpolate_rotations(
       each segment takes the shorter arc).
     - `t`: query times, any shape (clamped to the key range).
     - `method`: `"step"`, `"slerp"` (piecewise great arcs, constant angular speed) or
-      `"squad"` (C1 through the keys).
+      `"squad"` (C1 in time through the keys, also for uneven key spacing).
 
     **Returns:** `(*t.shape, 4)` unit quaternions.
     """
@@ -294,9 +303,30 @@ def interpolate_rotations(
     q0, q1 = q[i], q[i + 1]
     if method == "slerp":
         return slerp(q0, q1, u, shortest=False)
+    s_in, s_out = _squad_inners(times, q)
+    return squad(q0, s_out[i], s_in[i + 1], q1, u)
+
+
+def _squad_inners(times, q):
+    """Inner quaternions (incoming, outgoing) per key, for C1 continuity in *time*.
+
+    In the tangent space at key `q_i`, with `L+ = log(q_i^-1 q_i+1)`, `L- = log(q_i^-1 q_i-1)`
+    and segment durations `h-`, `h+`, the time tangent is `V = (L+ - L-) / (h- + h+)`.
+    Squad leaves `q_i` with u-velocity `L+ + 2 log(q_i^-1 s_out)` and arrives with
+    `-L- - 2 log(q_i^-1 s_in)`; setting these to `V h+` and `V h-` gives the inners below.
+    For even key spacing both equal Shoemake's `squad_inner`.
+    """
     padded = jnp.concatenate([q[:1], q, q[-1:]])
-    inner = squad_inner(padded[:-2], q, padded[2:])
-    return squad(q0, inner[i], inner[i + 1], q1, u)
+    h = jnp.diff(times)
+    h_prev = jnp.concatenate([h[:1], h])
+    h_next = jnp.concatenate([h, h[-1:]])
+    inv = quat_conjugate(q)
+    l_next = quat_log(quat_multiply(inv, padded[2:]))
+    l_prev = quat_log(quat_multiply(inv, padded[:-2]))
+    v = (l_next - l_prev) / (h_prev + h_next)[:, None]
+    s_out = quat_multiply(q, quat_exp((v * h_next[:, None] - l_next) / 2))
+    s_in = quat_multiply(q, quat_exp(-(v * h_prev[:, None] + l_prev) / 2))
+    return s_in, s_out
 
 
 class TrackSample(eqx.Module):

@@ -73,6 +73,9 @@ def _check(argv) -> int:
 
 
 def _grade(argv) -> int:
+    if "--isolation" in argv:  # which isolation layers this machine gives, then exit
+        print("\n".join(detect_protections().describe()))
+        return 0
     parser = argparse.ArgumentParser(
         prog="python -m gfxlab grade",
         description="Grade a submitted notebook, or every .ipynb in a folder in parallel.",
@@ -85,6 +88,8 @@ def _grade(argv) -> int:
                              "default: ./results.json or ./grading-results/")
     parser.add_argument("--jobs", type=int, help="parallel graders (default: CPU cores)")
     parser.add_argument("--verbose", action="store_true", help="print per-test feedback")
+    parser.add_argument("--isolation", action="store_true",
+                        help="print which isolation layers are active here, and exit")
     _limit_args(parser)
     args = parser.parse_args(argv)
     if not (args.autograder / "config.json").is_file():
@@ -121,9 +126,6 @@ def _grade(argv) -> int:
 def main(command: str, argv: list[str]) -> int:
     """Entry point used by `python -m gfxlab` (`command` is assign, check or grade)."""
     handlers = {"assign": _assign, "check": _check, "grade": _grade}
-    if command == "isolation":
-        print("\n".join(detect_protections().describe()))
-        return 0
     if command not in handlers:
         print(f"unknown grading command {command!r}", file=sys.stderr)
         return 2

@@ -65,9 +65,9 @@ def check_array(value, *, shape=None, dtype=None, kind=None, name="the result"):
     **Returns:** `value` as a numpy array. Raises `Feedback` (an `AssertionError` shown to
     the student even in hidden tests) with a clear message otherwise.
     """
-    if type(value) is not np.ndarray and not isinstance(value, (list, tuple, np.generic)):
-        if not isinstance(value, (int, float)) or isinstance(value, bool) and kind != "b":
-            raise Feedback(f"{name} should be an array, got {type(value).__name__}")
+    arraylike = isinstance(value, (np.ndarray, list, tuple, np.generic, int, float))
+    if not arraylike and not hasattr(value, "__array__"):
+        raise Feedback(f"{name} should be an array, got {type(value).__name__}")
     try:
         array = np.asarray(value)
     except (ValueError, TypeError):
@@ -176,10 +176,12 @@ class StudentSession:
     crashed the process is not called again: its remaining tests fail at once.
     """
 
-    def __init__(self, cells, limits: Limits, *, hide=(), preload=("numpy",), x64=True):
+    def __init__(self, cells, limits: Limits, *, hide=(), preload=("numpy",), x64=True,
+                 jax_cache=None, trusted=False):
         self.cells = list(cells)
         self.limits = limits
-        self.sandbox = Sandbox(limits, hide=tuple(hide), preload=tuple(preload), x64=x64)
+        self.sandbox = Sandbox(limits, hide=tuple(hide), preload=tuple(preload), x64=x64,
+                               jax_cache=jax_cache, jax_cache_writable=trusted)
         self.status: list[str | None] = [None] * len(self.cells)
         self.stopped: dict[str, str] = {}
         self.restarts = -1
@@ -216,12 +218,12 @@ class StudentSession:
         self._ensure()
 
     def defined(self, names) -> dict[str, bool]:
-        self._ensure()
         try:
+            self._ensure()
             flags = self.sandbox.request(
                 "names", self.limits.call_timeout, names=codec.encode(list(names))
             )
-        except SandboxError:
+        except (SandboxError, StudentCallError):
             return {n: True for n in names}  # let the call itself report the problem
         if type(flags) is not list or len(flags) != len(names):
             return {n: True for n in names}
@@ -340,6 +342,10 @@ class GradeResult:
 
 
 def _failure_message(exc: BaseException, hidden: bool) -> str:
+    return _describe_failure(exc, hidden)[:2000]
+
+
+def _describe_failure(exc: BaseException, hidden: bool) -> str:
     if isinstance(exc, (StudentCallError, Feedback)):
         return str(exc)
     if hidden:
@@ -391,25 +397,52 @@ class Autograder:
             paths.append(self.config["source_dir"])
         return tuple(paths) + tuple(str(p) for p in extra)
 
+    @property
+    def jax_cache(self) -> str | None:
+        """The trusted JAX compilation cache (assignments that preload jax)."""
+        if "jax" not in self.config.get("preload", []) or not self.config.get("questions"):
+            return None
+        return str(self.directory / "jax-cache")
+
+    def warm_cache(self) -> None:
+        """Fill the JAX cache by grading the reference solution once (trusted code)."""
+        cache = self.jax_cache
+        if cache and not os.path.exists(os.path.join(cache, ".warm")):
+            self.grade_cells(self.solution_cells(), label="reference", trusted=True)
+
     def grade_cells(self, cells, *, label="submission", hide=(), limits=None,
-                    public_only=False) -> GradeResult:
-        """Grade a list of code-cell sources (the student's code)."""
+                    public_only=False, trusted=False) -> GradeResult:
+        """Grade a list of code-cell sources (the student's code).
+
+        `trusted=True` (the reference solution only) lets the run write the JAX cache.
+        """
         started = time.perf_counter()
+        if not trusted:
+            self.warm_cache()
         session = StudentSession(
             cells,
             self.limits(limits),
             hide=self.hide_paths(*hide),
             preload=tuple(self.config.get("preload", ["numpy"])),
             x64=bool(self.config.get("x64", True)),
+            jax_cache=self.jax_cache,
+            trusted=trusted,
         )
         results = []
         try:
-            session.start()
+            try:
+                session.start()
+            except StudentCallError as exc:  # cannot start at all: every test fails, we go on
+                session.notes.append(str(exc))
             for question in self.questions:
                 results.append(self._grade_question(question, session, public_only))
         finally:
             session.close()
+        if trusted and self.jax_cache:
+            pathlib.Path(self.jax_cache, ".warm").touch()
         protections = detect_protections().describe()
+        if not detect_protections().mount_namespace and os.stat(self.directory).st_mode & 0o077:
+            protections.append(f"warning: {self.directory} is readable by other users")
         if session.sandbox.not_hidden:
             protections.append(f"could not hide (contain the interpreter or temp dir): "
                                f"{', '.join(session.sandbox.not_hidden)}")
@@ -509,7 +542,8 @@ def assign(source, out, *, verify=True, limits=None) -> AssignResult:
     reference = blank = None
     if verify:
         grader = Autograder(grader_dir)
-        reference = grader.grade_cells(grader.solution_cells(), label="reference", limits=limits)
+        reference = grader.grade_cells(grader.solution_cells(), label="reference", limits=limits,
+                                       trusted=True)
         failures = [
             f"{q.name}.{t.name}: {t.message or 'failed'}"
             for q in reference.questions for t in q.tests if not t.passed
@@ -581,6 +615,7 @@ def grade_many(submissions, autograder_dir, out_dir, *, jobs=None, limits=None):
     jobs = jobs or os.cpu_count() or 1
     directory = str(pathlib.Path(autograder_dir).resolve())
     grader = Autograder(directory)
+    grader.warm_cache()  # once, before the pool, so parallel graders never race on it
     tasks = [(directory, s, limits) for s in submissions]
     if jobs == 1 or len(submissions) == 1:
         results = [_grade_one(t) for t in tasks]

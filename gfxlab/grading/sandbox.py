@@ -47,6 +47,7 @@ class Limits:
     - `output_mb`: largest file the process may write, its stdout included (`RLIMIT_FSIZE`).
     - `processes`: tasks (threads included) of the sandbox uid (`RLIMIT_NPROC`).
     - `open_files`: file descriptors (`RLIMIT_NOFILE`).
+    - `tmp_mb`: size of the private `/tmp` (with a mount namespace).
     - `max_restarts`: restarts after crashes and timeouts, per submission.
     """
 
@@ -56,8 +57,9 @@ class Limits:
     cpu_seconds: int = 300
     memory_mb: int = 3072
     output_mb: int = 8
-    processes: int = 64
+    processes: int = 64 + 2 * (os.cpu_count() or 1)
     open_files: int = 256
+    tmp_mb: int = 64
     max_restarts: int = 6
 
     def rlimits(self) -> dict[str, int]:
@@ -162,7 +164,42 @@ def detect_protections() -> Protections:
             "is available: the student process keeps the grader's uid"
         )
     expose = tuple((b, tuple(p)) for b, p in blocked.items()) if drop else ()
+    if (flags or drop) and not _probe(flags, drop, expose):
+        notes.append("the full sandbox failed to start here; running with fewer layers")
+        flags = ("--net",) if flags and _probe(("--net",), False, ()) else ()
+        drop, expose = (False, ()) if blocked else (root and _probe(flags, True, ()), ())
     return Protections(drop, flags, expose, tuple(map(str, required)), tuple(notes))
+
+
+def _probe(flags, drop, expose) -> bool:
+    """Can the launcher really start a Python with these layers on this machine?"""
+    workdir = tempfile.mkdtemp(prefix="gfxlab-probe-")
+    uid = 1_099_999 if drop else None
+    if uid is not None:
+        os.chown(workdir, uid, uid)
+    config = {
+        "mount_namespace": "--mount" in flags,
+        "expose": [list(e) for e in expose],
+        "hide": [],
+        "private_tmp": ["/tmp", "/var/tmp", "/dev/shm"] if "--mount" in flags else [],
+        "tmp_mb": 1,
+        "rlimits": {},
+        "workdir": workdir,
+        "uid": uid,
+        "gid": uid,
+        "env": {"PATH": "/usr/bin:/bin"},
+        "argv": [sys.executable, "-I", "-c", "import json"],
+    }
+    prefix = ["unshare", *flags] if flags else []
+    cmd = [*prefix, sys.executable, "-I", "-S", "-c", _source("_launcher.py"), json.dumps(config)]
+    try:
+        run = subprocess.run(cmd, capture_output=True, timeout=30, check=False,
+                             env={"PATH": "/usr/bin:/bin"})
+        return run.returncode == 0
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+    finally:
+        shutil.rmtree(workdir, ignore_errors=True)
 
 
 class SandboxError(Exception):
@@ -217,6 +254,10 @@ class Sandbox:
     - `hide`: directories the student process must not see (autograder, submissions).
     - `preload`: modules the worker imports before any student code (e.g. `("numpy",)`).
     - `x64`: enable float64 in JAX (`JAX_ENABLE_X64`) in the student process.
+    - `jax_cache`: a JAX compilation-cache directory, bound read-only into the student
+      process (only with a mount namespace), so eager JAX code does not recompile every
+      primitive in every fresh process. Only trusted runs (`jax_cache_writable=True`,
+      the reference solution) may write it, so students cannot poison it.
     """
 
     def __init__(
@@ -226,11 +267,15 @@ class Sandbox:
         hide: tuple[str, ...] = (),
         preload: tuple[str, ...] = ("numpy",),
         x64: bool = True,
+        jax_cache: str | None = None,
+        jax_cache_writable: bool = False,
     ):
         self.limits = limits
         self.protections = detect_protections()
         self.preload = tuple(preload)
         self.x64 = x64
+        self.jax_cache = jax_cache if self.protections.mount_namespace else None
+        self.jax_cache_writable = jax_cache_writable
         self.hidden, self.not_hidden = self._hide_list(hide)
         self.proc: subprocess.Popen | None = None
         self.workdir: str | None = None
@@ -260,6 +305,19 @@ class Sandbox:
         self.uid = secrets.randbelow(900_000) + 1_100_000 if prot.drop_privileges else None
         if self.uid is not None:
             os.chown(self.workdir, self.uid, self.uid)
+        env = _minimal_env(self.workdir, self.x64)
+        cache = None
+        if self.jax_cache:
+            os.makedirs(self.jax_cache, exist_ok=True)
+            if self.jax_cache_writable:
+                _chown_tree(self.jax_cache, self.uid)
+            cache = {"source": self.jax_cache, "target": _CACHE_TARGET,
+                     "writable": self.jax_cache_writable}
+            env.update(
+                JAX_COMPILATION_CACHE_DIR=_CACHE_TARGET,
+                JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0",
+                JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES="0",
+            )
         req_r, self._req_w = os.pipe()
         self._rep_r, rep_w = os.pipe()
         output = open(os.path.join(self.workdir, ".output"), "wb")  # noqa: SIM115
@@ -268,11 +326,14 @@ class Sandbox:
             "mount_namespace": prot.mount_namespace,
             "expose": [list(e) for e in prot.expose],
             "hide": list(self.hidden) if prot.mount_namespace else [],
+            "private_tmp": ["/tmp", "/var/tmp", "/dev/shm"] if prot.mount_namespace else [],
+            "tmp_mb": int(self.limits.tmp_mb),
+            "jax_cache": cache,
             "rlimits": self.limits.rlimits(),
             "workdir": self.workdir,
             "uid": self.uid,
             "gid": self.uid,
-            "env": _minimal_env(self.workdir, self.x64),
+            "env": env,
             "argv": [
                 sys.executable, "-I", "-c", worker_src,
                 str(req_r), str(rep_w), ",".join(self.preload),
@@ -415,12 +476,30 @@ class Sandbox:
         if self.workdir:
             shutil.rmtree(self.workdir, ignore_errors=True)
             self.workdir = None
+        if self.jax_cache and self.jax_cache_writable and self.uid is not None:
+            _chown_tree(self.jax_cache, os.geteuid())
 
     def __enter__(self):
         return self
 
     def __exit__(self, *exc):
         self.close()
+
+
+_CACHE_TARGET = "/tmp/.gfxlab-jax-cache"
+
+
+def _chown_tree(path: str, uid: int | None) -> None:
+    """Hand a directory tree to `uid` (dirs 0755, files 0644: readable, not writable)."""
+    if uid is None:
+        return
+    for root, dirs, files in os.walk(path):
+        for name in [root, *(os.path.join(root, d) for d in dirs)]:
+            os.chown(name, uid, uid)
+            os.chmod(name, 0o755)
+        for f in files:
+            os.chown(os.path.join(root, f), uid, uid)
+            os.chmod(os.path.join(root, f), 0o644)
 
 
 def _kill_uid(uid: int) -> None:

@@ -320,7 +320,7 @@ _UNSUPPORTED_SOF = {
     0xCF: "arithmetic-coded hierarchical JPEG",
     0xCC: "arithmetic coding (DAC marker)",
 }
-_PAD_BYTES = 4096  # look-ahead slack: one MCU reads at most 10 * 64 * 32 bits
+_PAD_BYTES = 264  # look-ahead slack: one block reads at most 64 * 32 bits
 
 
 def _lookup(spec, table_class: int):
@@ -395,7 +395,7 @@ def _parse_dht(seg: bytes, tables: dict):
         bits = tuple(seg[i + 1 : i + 17])
         count = sum(bits)
         if tc > 1 or th > 3 or count > 256 or i + 17 + count > len(seg):
-            raise JPEGError("corrupt DHT segment")
+            raise JPEGError("corrupt DHT segment (bad Huffman table header)")
         values = tuple(seg[i + 17 : i + 17 + count])
         tables[tc, th] = _lookup((bits, values), tc)
         i += 17 + count
@@ -507,8 +507,8 @@ def _decode_scan(data: bytes, schedule, n_mcu: int, restart: int, huff: dict):
                 else:
                     break
             b += 1
-        if p > seg_end:
-            raise JPEGError("truncated or corrupt JPEG: scan data ended inside an MCU")
+            if p > seg_end:
+                raise JPEGError("truncated or corrupt JPEG: scan data ended inside a block")
     return np.asarray(dcs, np.int64), np.asarray(ac_index, np.int64), np.asarray(ac_value, np.int64)
 
 

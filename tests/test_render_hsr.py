@@ -1,0 +1,146 @@
+"""Hidden-surface removal: z-buffer, painter's, Warnock and scan-line agree."""
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from matplotlib.path import Path
+
+from gfxlab import render as R
+from gfxlab.mesh import cube
+from gfxlab.viewing import Camera
+
+METHODS = [R.zbuffer, R.painter, R.warnock, R.scanline]
+
+
+def layered_scene(seed, count, shape, spread=9.0):
+    """Random tilted triangles in distinct depth layers: no cycles, no interpenetration."""
+    rng = np.random.default_rng(seed)
+    h, w = shape
+    centre = rng.uniform([0, 0], [w, h], (count, 1, 2))
+    xy = centre + rng.normal(0, spread, (count, 3, 2))
+    z = rng.permutation(count)[:, None, None] + rng.uniform(-0.3, 0.3, (count, 3, 1))
+    colors = rng.uniform(0, 1, (count, 3))
+    return jnp.asarray(np.concatenate([xy, z], -1)), jnp.asarray(colors)
+
+
+def reference_owner(triangles, shape):
+    """Brute force with matplotlib's point-in-polygon: nearest triangle at each centre."""
+    h, w = shape
+    rows, cols = np.meshgrid(np.arange(h), np.arange(w), indexing="ij")
+    points = np.stack([cols, h - 1 - rows], -1).reshape(-1, 2).astype(float)
+    tri = np.asarray(triangles)
+    best = np.full(len(points), np.inf)
+    owner = np.full(len(points), -1)
+    for index, t in enumerate(tri):  # a test reference: clarity over speed
+        inside = Path(t[:, :2]).contains_points(points)
+        a = np.column_stack([t[:, :2], np.ones(3)])
+        plane = np.linalg.solve(a, t[:, 2])
+        depth = points @ plane[:2] + plane[2]
+        nearer = inside & (depth < best)
+        best[nearer], owner[nearer] = depth[nearer], index
+    return owner.reshape(h, w), best.reshape(h, w)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_four_methods_agree_with_a_brute_force_reference(seed):
+    shape = (37, 45)
+    triangles, colors = layered_scene(seed, 16, shape)
+    owner, depth = reference_owner(triangles, shape)
+    background = jnp.array([0.1, 0.2, 0.3])
+    expected = np.where((owner >= 0)[..., None], np.asarray(colors)[owner], background)
+    assert 0.2 < (owner >= 0).mean() < 0.95
+    for method in METHODS:
+        result = method(triangles, colors, shape, background=background)
+        match = np.all(np.asarray(result.image) == expected, -1).mean()
+        assert match >= 0.998, method.__name__  # pixel centres on edges may differ
+        assert result.counters["memory_bytes"] > 0
+    z = R.zbuffer(triangles, colors, shape, background=background)
+    hit = owner >= 0
+    np.testing.assert_allclose(np.asarray(z.depth)[hit], depth[hit], atol=1e-9)
+    assert np.all(np.isinf(np.asarray(z.depth)[~hit]))
+    assert int(z.counters["memory_bytes"]) == 37 * 45 * (3 + 1) * 8
+    covered = sum(Path(t[:, :2]).contains_points(np.argwhere(np.ones(shape))[:, ::-1] * [1, -1]
+                  + [0, shape[0] - 1]).sum() for t in np.asarray(triangles))
+    assert abs(int(z.counters["depth_tests"]) - covered) <= 3
+
+
+def cyclic_scene():
+    """Three bars, each over the next and under the previous (the classic cycle)."""
+    bars = []
+    for k in range(3):
+        angle = 2 * np.pi * k / 3
+        d, n = np.array([np.cos(angle), np.sin(angle)]), np.array([-np.sin(angle), np.cos(angle)])
+        start, end = 20 - 17 * d + 4 * n, 20 + 17 * d + 4 * n
+        width = 3.5 * n
+        quad = np.array([start - width, end - width, end + width, start + width])
+        z = np.array([0.0, 2.0, 2.0, 0.0])  # each bar tilts from near to far along its length
+        tris = [quad[[0, 1, 2]], quad[[0, 2, 3]]]
+        zs = [z[[0, 1, 2]], z[[0, 2, 3]]]
+        bars += [np.column_stack([t, zz]) for t, zz in zip(tris, zs, strict=True)]
+    colors = np.repeat(np.eye(3), 2, axis=0)
+    return jnp.asarray(np.array(bars)), jnp.asarray(colors)
+
+
+def test_painter_fails_on_cyclic_overlap_the_others_do_not():
+    shape = (40, 40)
+    triangles, colors = cyclic_scene()
+    owner, _ = reference_owner(triangles, shape)
+    expected = np.where((owner >= 0)[..., None], np.asarray(colors)[owner], 0.0)
+    painted = R.painter(triangles, colors, shape)
+    assert int(painted.counters["cycle"]) == 1
+    assert np.mean(np.all(np.asarray(painted.image) == expected, -1)) < 0.99
+    for method in (R.zbuffer, R.warnock, R.scanline):
+        image = np.asarray(method(triangles, colors, shape).image)
+        assert np.mean(np.all(image == expected, -1)) >= 0.998
+    # without the cycle (one bar removed) the painter's order is right again
+    two = R.painter(triangles[:4], colors[:4], shape)
+    assert int(two.counters["cycle"]) == 0
+    np.testing.assert_array_equal(two.image, R.zbuffer(triangles[:4], colors[:4], shape).image)
+
+
+def test_warnock_quadtree():
+    shape = (16, 16)
+    big = jnp.array([[[-40.0, -40.0, 1.0], [80.0, -40.0, 1.0], [-40.0, 80.0, 1.0]]])
+    one = R.warnock(big, jnp.array([[1.0, 0.0, 0.0]]), shape)
+    assert int(one.quadtree[0][0, 0]) == 3  # a single surrounding polygon: done at the root
+    assert all(int(jnp.sum(level > 0)) == 0 for level in one.quadtree[1:])
+    empty = R.warnock(big[:0], jnp.zeros((0, 3)), shape)
+    assert int(empty.quadtree[0][0, 0]) == 1
+    # a small triangle in front of a surrounding one: subdivision around it, test 4 elsewhere
+    small = jnp.array([[[3.2, 3.3, 0.0], [9.7, 4.1, 0.0], [5.1, 11.6, 0.0]]])
+    scene = jnp.concatenate([big, small])
+    result = R.warnock(scene, jnp.eye(3)[:2], shape)
+    codes = np.concatenate([np.asarray(level).ravel() for level in result.quadtree])
+    assert int(result.quadtree[0][0, 0]) == 5 and (codes == 3).any() and (codes == 4).any()
+    np.testing.assert_array_equal(result.image, R.zbuffer(scene, jnp.eye(3)[:2], shape).image)
+    cells = R.quadtree_cells(result.quadtree, shape)
+    assert cells.shape[1] == 6
+    leaves = cells[cells[:, 5] != 5]
+    area = np.sum((leaves[:, 2] - leaves[:, 0]) * (leaves[:, 3] - leaves[:, 1]))
+    assert area == pytest.approx(16 * 16)  # the decided cells tile the image
+
+
+def test_screen_scene_of_a_cube():
+    camera = Camera(jnp.array([2.0, 1.5, 3.0]), near=0.5, far=10.0)
+    mesh = cube().with_colors(jnp.array([0.2, 0.6, 0.9]))
+    triangles, colors = R.screen_scene(mesh, camera, (40, 40))
+    np.testing.assert_allclose(triangles[..., :2], camera.to_pixels(mesh.vertices, (40, 40))[
+        mesh.faces])
+    images = [np.asarray(m(triangles, colors, (40, 40)).image) for m in METHODS]
+    for image in images[1:]:
+        assert np.mean(np.all(image == images[0], -1)) >= 0.995
+    # a face crossing the near plane is skipped (NaN corners), not drawn wrongly
+    close = Camera(jnp.array([0.0, 0.0, 0.55]), near=0.5, far=10.0)
+    triangles, _ = R.screen_scene(mesh, close, (40, 40))
+    assert bool(jnp.any(jnp.isnan(triangles))) and bool(jnp.any(jnp.isfinite(triangles)))
+
+
+def test_bad_inputs():
+    triangles, colors = layered_scene(0, 3, (8, 8))
+    for method in METHODS:
+        with pytest.raises(ValueError, match="triangles"):
+            method(triangles[..., :2], colors, (8, 8))
+        with pytest.raises(ValueError, match="colors"):
+            method(triangles, colors[:2], (8, 8))
+        with pytest.raises(ValueError, match="shape"):
+            method(triangles, colors, (8,))
