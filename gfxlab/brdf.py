@@ -77,24 +77,27 @@ def _unit_tolerance(dtype) -> float:
     return max(1e-6, 1000.0 * float(jnp.finfo(dtype).eps))
 
 
+def _unit_vectors(v: jax.Array, name: str) -> jax.Array:
+    """Check that `v` holds 3D unit vectors (last axis 3, length 1 within a tolerance)."""
+    check_last_dim(v, name, (3,), "3D direction vectors")
+    length = jnp.sqrt(jnp.sum(v * v, axis=-1))
+    tol = _unit_tolerance(v.dtype)
+    return value_error_if(
+        v,
+        jnp.abs(length - 1.0) > tol,
+        f"`{name}` must contain unit vectors (length 1 within {tol:g}); normalise it",
+    )
+
+
 def _directions(wi, wo, n) -> tuple[jax.Array, jax.Array, jax.Array]:
     """Check and promote the three direction arrays (unit vectors, last axis 3)."""
     arrays = [as_float(v, name) for v, name in ((wi, "wi"), (wo, "wo"), (n, "n"))]
     dtype = jnp.result_type(*arrays)
-    out = []
-    for v, name in zip(arrays, ("wi", "wo", "n"), strict=True):
-        v = v.astype(dtype)
-        check_last_dim(v, name, (3,), "3D direction vectors")
-        length = jnp.sqrt(jnp.sum(v * v, axis=-1))
-        tol = _unit_tolerance(dtype)
-        out.append(
-            value_error_if(
-                v,
-                jnp.abs(length - 1.0) > tol,
-                f"`{name}` must contain unit vectors (length 1 within {tol:g}); normalise it",
-            )
-        )
-    return out[0], out[1], out[2]
+    wi, wo, n = (
+        _unit_vectors(v.astype(dtype), name)
+        for v, name in zip(arrays, ("wi", "wo", "n"), strict=True)
+    )
+    return wi, wo, n
 
 
 def _param(value, name: str, dtype, *, low: float = 0.0, high: float | None = None):
@@ -234,7 +237,9 @@ def blinn_phong(
     kd = _param(kd, "kd", wi.dtype, high=1.0)
     valid = (_dot(n, wi) > 0) & (_dot(n, wo) > 0)
     half = _normalize(wi + wo)
-    norm = (shininess + 2.0) * (shininess + 4.0) / (8.0 * jnp.pi * (2.0 ** (-shininess / 2) + shininess))
+    norm = (shininess + 2.0) * (shininess + 4.0) / (
+        8.0 * jnp.pi * (2.0 ** (-shininess / 2) + shininess)
+    )
     specular = ks * norm * _safe_power(_dot(n, half), shininess)
     return _diffuse(kd, valid, wi.dtype) + jnp.where(valid, specular, 0.0)
 
@@ -438,6 +443,11 @@ def reciprocity_error(
         sample_wo = _hemisphere_samples(key_o, num_samples, n, n.dtype)
         wi = sample_wi if wi is None else wi
         wo = sample_wo if wo is None else wo
+    return _reciprocity(brdf, as_float(wi, "wi"), as_float(wo, "wo"), n)
+
+
+@eqx.filter_jit
+def _reciprocity(brdf, wi, wo, n):
     forward = brdf(wi, wo, n)
     backward = brdf(wo, wi, n)
     scale = jnp.maximum(jnp.abs(forward), jnp.abs(backward))
@@ -505,14 +515,11 @@ def directional_albedo(
     n = as_float(n, "n")
     dtype = jnp.result_type(wo, n)
     wo, n = wo.astype(dtype), n.astype(dtype)
-    check_last_dim(wo, "wo", (3,), "3D direction vectors")
-    check_last_dim(n, "n", (3,), "3D direction vectors")
+    wo, n = _unit_vectors(wo, "wo"), _unit_vectors(n, "n")
     batch = jnp.broadcast_shapes(wo.shape, n.shape)
     wo_flat = jnp.broadcast_to(wo, batch).reshape(-1, 3)
     n_flat = jnp.broadcast_to(n, batch).reshape(-1, 3)
     local, weights = _albedo_grid(num_theta, num_phi, np.dtype(dtype))
-    # Check the directions once up front, with the caller's names in the message.
-    wo_flat, _, n_flat = _directions(wo_flat, wo_flat, n_flat)
     albedo = _albedo_quadrature(brdf, wo_flat, n_flat, jnp.asarray(local), jnp.asarray(weights))
     return albedo.reshape(batch[:-1])
 
@@ -585,10 +592,18 @@ def shade_sphere(
     pixel_r = radius * 0.5 * min(height, width)
     x = jnp.asarray((cols - (width - 1) / 2) / pixel_r, dtype)
     y = jnp.asarray(((height - 1 - rows) - (height - 1) / 2) / pixel_r, dtype)
+    intensity = as_float(intensity, "intensity").astype(dtype)
+    background = as_float(background, "background").astype(dtype)
+    return _shade(brdf, x, y, light, intensity, background, point_light)
+
+
+@eqx.filter_jit
+def _shade(brdf, x, y, light, intensity, background, point_light):
+    # Compiled once per BRDF structure and image size.
     r2 = x * x + y * y
     inside = r2 < 1.0
     z = jnp.sqrt(jnp.where(inside, 1.0 - r2, 1.0))
-    up = jnp.array([0.0, 0.0, 1.0], dtype)
+    up = jnp.array([0.0, 0.0, 1.0], x.dtype)
     normal = jnp.where(inside[..., None], jnp.stack([x, y, z], axis=-1), up)
     normal = _normalize(normal)
     wo = jnp.broadcast_to(up, normal.shape)
@@ -599,10 +614,10 @@ def shade_sphere(
         irradiance = intensity / jnp.where(dist2 > 0, dist2, 1.0)
     else:
         wi = jnp.broadcast_to(_normalize(light), normal.shape)
-        irradiance = jnp.asarray(intensity, dtype)
+        irradiance = intensity
     cos_i = jnp.maximum(_dot(normal, wi), 0.0)
     radiance = brdf(wi, wo, normal) * irradiance * cos_i
-    return jnp.where(inside, radiance, jnp.asarray(background, dtype))
+    return jnp.where(inside, radiance, background)
 
 
 def half_diff_to_directions(

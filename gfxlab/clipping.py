@@ -202,14 +202,19 @@ def cohen_sutherland(
     """
     segments, window = common_float(segments, window, names=("segments", "window"))
     segments = _check_segments(segments)
-    w = _window(window)
-    p0, p1 = segments[..., 0, :], segments[..., 1, :]
-    active = jnp.ones(segments.shape[:-2], bool)
-    accepted = jnp.zeros_like(active)
-    for _ in range(_CS_MAX_CLIPS + 1):  # a fixed 5 iterations, each over all segments
+    return _cohen_sutherland(segments, _window(window))
+
+
+@jax.jit
+def _cohen_sutherland(segments, w):
+    def iteration(_, state):  # one round over all segments
+        p0, p1, active, accepted = state
         p0, p1, accept, reject = _cs_iteration(p0, p1, w, active)
-        accepted = accepted | accept
-        active = active & ~accept & ~reject
+        return p0, p1, active & ~accept & ~reject, accepted | accept
+
+    active = jnp.ones(segments.shape[:-2], bool)
+    state = (segments[..., 0, :], segments[..., 1, :], active, jnp.zeros_like(active))
+    p0, p1, _, accepted = jax.lax.fori_loop(0, _CS_MAX_CLIPS + 1, iteration, state)
     return _finish(segments, p0, p1, accepted)
 
 
@@ -224,8 +229,11 @@ def cohen_sutherland_steps(
     """
     segments, window = common_float(segments, window, names=("segments", "window"))
     segments = _check_segments(segments)
-    w = _window(window)
+    return _cohen_sutherland_steps(segments, _window(window))
 
+
+@jax.jit
+def _cohen_sutherland_steps(segments, w):
     def one(segment):
         def cond(state):
             return state[2] == 0  # 0 undecided, 1 accepted, 2 rejected
@@ -324,7 +332,11 @@ def liang_barsky(
     """
     segments, window = common_float(segments, window, names=("segments", "window"))
     segments = _check_segments(segments)
-    w = _window(window)
+    return _liang_barsky(segments, _window(window))
+
+
+@jax.jit
+def _liang_barsky(segments, w):
     start, end = segments[..., 0, :], segments[..., 1, :]
     d = end - start
     p = jnp.stack([-d[..., 0], d[..., 0], -d[..., 1], d[..., 1]], -1)
@@ -402,6 +414,18 @@ def sutherland_hodgman(
     size = 2 * count_in + 8 if max_vertices is None else static_int(
         max_vertices, "max_vertices", minimum=3
     )
+    points, count, needed = _sutherland_hodgman(polygon, w, size)
+    points = value_error_if(
+        points, needed > size,
+        f"the clipped polygon needs more than max_vertices={size} vertices; pass a larger "
+        "`max_vertices`",
+    )
+    return points, jnp.arange(size) < count
+
+
+@jax.jit(static_argnames="size")
+def _sutherland_hodgman(polygon, w, size):
+    count_in = polygon.shape[0]
 
     def vertical(x_edge, keep_right):
         def inside(p):
@@ -433,13 +457,7 @@ def sutherland_hodgman(
     for inside_fn, cross_fn in stages:  # the four window edges
         points, count, wanted = _clip_stage(points, count, inside_fn, cross_fn, size)
         needed = jnp.maximum(needed, wanted)
-    points = value_error_if(
-        points, needed > size,
-        f"the clipped polygon needs more than max_vertices={size} vertices; pass a larger "
-        "`max_vertices`",
-    )
-    valid = jnp.arange(size) < count
-    return points, valid
+    return points, count, needed
 
 
 def polygon_area(

@@ -410,6 +410,20 @@ def _check_in_range(
     )
 
 
+def _span_search(knots: jax.Array, u: jax.Array) -> jax.Array:
+    """The largest `i` with `t_i <= u`, for sorted knots and `u >= t_0`: a branch-free
+    binary search made of scalar look-ups, which XLA fuses into a few passes over `u`."""
+    m = knots.shape[0]
+    index = jnp.zeros(u.shape, jnp.int32)
+    step = 1 << (max(m - 1, 1).bit_length() - 1)
+    while step >= 1:
+        candidate = jnp.minimum(index + step, m - 1)
+        below = knots.at[candidate].get(mode="promise_in_bounds") <= u
+        index = jnp.where(below, candidate, index)
+        step //= 2
+    return index
+
+
 def _spans(knots: jax.Array, degree: int, n: int, u: jax.Array) -> jax.Array:
     """For each `u`, the index `s` of its knot span, `t_s <= u < t_{s+1}`, restricted to
     non-empty spans in `[p, n-1]` (so `u = t_n` belongs to the last non-empty span)."""
@@ -418,36 +432,33 @@ def _spans(knots: jax.Array, degree: int, n: int, u: jax.Array) -> jax.Array:
     valid = (knots[1:] > knots[:-1]) & (index >= degree) & (index <= n - 1)
     first = jnp.argmax(valid)
     last = m - 1 - jnp.argmax(valid[::-1])
-    span = jnp.searchsorted(knots, u, side="right", method="scan_unrolled") - 1
-    return jnp.clip(span, first, last)
+    return jnp.clip(_span_search(knots, u), first, last)
 
 
-def _local_basis(knots: jax.Array, degree: int, u: jax.Array, span: jax.Array) -> jax.Array:
-    """The `p + 1` basis functions that are non-zero on each `u`'s span,
-    `N_{s-p+j, p}(u)` for `j = 0..p`, `(N, p+1)`: the Cox-de Boor recursion restricted
-    to one span (a triangle of `p (p+1) / 2` blends, unrolled over the degree).
+def _bezier_segments(cp: jax.Array, knots: jax.Array, p: int) -> jax.Array:
+    """The Bezier control points of every span `[t_s, t_{s+1}]`, `s = p..n-1`:
+    `(..., n-p, p+1, d)`.
 
-    Every denominator is `t_{s+r+1} - t_{s+r+1-j}`, a sum of knot intervals that
-    includes the non-empty span `[t_s, t_{s+1}]`, so it is positive.
+    Bezier point `k` of span `s` is the blossom of the curve at `k` copies of `t_{s+1}`
+    and `p - k` copies of `t_s`, evaluated by de Boor's algorithm (level `r` blends
+    `d_i = (1 - a) d_{i-1} + a d_i`, `a = (x_r - t_i) / (t_{i+p+1-r} - t_i)` with the
+    `r`-th blossom argument `x_r`), vectorized over spans and `k`. For a non-empty span
+    every denominator covers `[t_s, t_{s+1}]`, so it is positive; empty spans get
+    finite values that are never used.
     """
-    p = degree
-    if p == 0:
-        return jnp.ones_like(u)[:, None]
-    offsets = jnp.arange(-p + 1, p + 1)
-    t = knots[span[:, None] + offsets]  # t[:, k] = t_{s + k - p + 1}
-    left = [None] + [u - t[:, p - j] for j in range(1, p + 1)]  # u - t_{s+1-j}
-    right = [None] + [t[:, p - 1 + j] - u for j in range(1, p + 1)]  # t_{s+j} - u
-    basis = [jnp.ones_like(u)]
-    for j in range(1, p + 1):
-        saved = jnp.zeros_like(u)
-        nxt = []
-        for r in range(j):
-            temp = basis[r] / (right[r + 1] + left[j - r])
-            nxt.append(saved + right[r + 1] * temp)
-            saved = left[j - r] * temp
-        nxt.append(saved)
-        basis = nxt
-    return jnp.stack(basis, axis=-1)
+    n = cp.shape[-2]
+    s = np.arange(p, n)
+    window = knots[s[:, None] + np.arange(-p, p + 1)]  # window[:, l] = t_{s-p+l}
+    t_s, t_s1 = window[:, p], window[:, p + 1]
+    k = np.arange(p + 1)
+    d = cp[..., s[:, None] + np.arange(-p, 1), :][..., :, None, :, :]  # (..., S, 1, p+1, d)
+    for r in range(1, p + 1):
+        x = jnp.where(r <= k, t_s1[:, None], t_s[:, None])  # (S, p+1): argument r per k
+        lo = window[:, r : p + 1]
+        hi = window[:, p + 1 : 2 * p + 2 - r]
+        a = _safe_ratio(x[:, :, None] - lo[:, None, :], (hi - lo)[:, None, :])[..., None]
+        d = (1 - a) * d[..., :-1, :] + a * d[..., 1:, :]
+    return d[..., 0, :]
 
 
 def _safe_ratio(numerator: jax.Array, denominator: jax.Array) -> jax.Array:
@@ -521,9 +532,11 @@ def bspline(
 ) -> Float[Array, "*batch N d"]:
     """A B-spline curve `P(u) = sum_i N_{i,p}(u) p_i`.
 
-    Each `u` touches only the `p + 1` control points of its knot span (local control),
-    so evaluation is `O(N p^2)`: a vectorized span search, the local Cox-de Boor
-    triangle and a gather.
+    Each `u` touches only the `p + 1` control points of its knot span (local control).
+    Evaluation converts every span to Bezier form once (blossoming by de Boor's
+    algorithm, `O(n p^3)`), then per `u` does a branch-free binary search for the span
+    and a degree-`p` Bernstein evaluation: `O(N (log m + p d))`, fused by XLA. It equals
+    `bspline_basis(knots, degree, u) @ control_points` (the textbook Cox-de Boor form).
 
     **Arguments:**
 
@@ -553,10 +566,38 @@ def bspline(
 def _bspline_kernel(cp: jax.Array, knots: jax.Array, u: jax.Array, p: int) -> jax.Array:
     flat, shape = _flat_parameters(u)
     n = cp.shape[-2]
-    span = _spans(knots, p, n, flat)
-    basis = _local_basis(knots, p, flat, span)  # (N, p+1)
-    neighbours = jnp.take(cp, span[:, None] - p + jnp.arange(p + 1), axis=-2)
-    return _unflatten(jnp.einsum("nj,...njd->...nd", basis, neighbours), shape, -2)
+    segment = _spans(knots, p, n, flat) - p
+    bezier_points = _bezier_segments(cp, knots, p)  # (..., n-p, p+1, d)
+    starts, ends = knots[p:n], knots[p + 1 : n + 1]
+    scale = _safe_ratio(jnp.ones_like(starts), ends - starts)
+
+    def look_up(table):  # 1-D gathers by span: cheap, and they fuse with the arithmetic
+        return table.at[segment].get(mode="promise_in_bounds")
+
+    x = (flat - look_up(starts)) * look_up(scale)  # local parameter in [0, 1]
+    y = 1 - x
+    x_powers, y_powers = [jnp.ones_like(x)], [jnp.ones_like(x)]
+    for _ in range(p):
+        x_powers.append(x_powers[-1] * x)
+        y_powers.append(y_powers[-1] * y)
+    weights = [math.comb(p, j) * x_powers[j] * y_powers[p - j] for j in range(p + 1)]
+    batch, dim = cp.shape[:-2], cp.shape[-1]
+    columns = bezier_points.reshape((-1,) + bezier_points.shape[-3:])  # (B, n-p, p+1, d)
+    if columns.shape[0] * dim <= 16:
+        out = jnp.stack(
+            [
+                jnp.stack(
+                    [sum(w * look_up(c[:, j, i]) for j, w in enumerate(weights))
+                     for i in range(dim)],
+                    axis=-1,
+                )
+                for c in columns
+            ]
+        )
+    else:  # many curves at once: gather whole segments
+        rows = jnp.take(columns, segment, axis=1, mode="clip")  # (B, N, p+1, d)
+        out = jnp.einsum("jn,bnjd->bnd", jnp.stack(weights), rows)
+    return _unflatten(out.reshape(batch + flat.shape + (dim,)), shape, -2)
 
 
 def nurbs(
@@ -960,7 +1001,10 @@ def _resample(points: jax.Array, parameters: jax.Array, count: int) -> jax.Array
 
 def _fit_curve(evaluate, start, points, parameters, lo, hi, correct, method, max_steps):
     """Least-squares control points for fixed parameters, then (optionally) joint
-    Levenberg-Marquardt over control points and parameters (parameter correction)."""
+    Levenberg-Marquardt over control points and parameters (parameter correction).
+
+    `evaluate(control_points, parameters)` is an unchecked kernel: the inputs were
+    validated by the caller, which keeps the compiled solver small."""
     from .fit import fit
 
     def residuals(cp, t, data):
@@ -1034,7 +1078,8 @@ def fit_bezier(
     check_shape(parameters, "parameters", (points.shape[0],))
     start = _resample(points, parameters, degree + 1)
     cp, parameters, result = _fit_curve(
-        bezier, start, points, parameters, 0.0, 1.0, correct_parameters, method, max_steps
+        _bezier_kernel, start, points, parameters, 0.0, 1.0, correct_parameters, method,
+        max_steps,
     )
     curve = Bezier(cp)
     return (curve, parameters, result) if full_output else curve
@@ -1088,8 +1133,8 @@ def fit_bspline(
     check_shape(parameters, "parameters", (points.shape[0],))
     start = _resample(points, parameters, n)
 
-    def evaluate(cp, t):
-        return bspline(cp, p, t, knots=knots)
+    def evaluate(cp, t):  # inputs already checked; parameters stay clipped to the range
+        return _bspline_kernel(cp, knots, t, p)
 
     cp, parameters, result = _fit_curve(
         evaluate, start, points, parameters, lo, hi, correct_parameters, method, max_steps

@@ -23,7 +23,6 @@ import functools
 import math
 import os
 import pathlib
-import xml.sax.saxutils
 from collections.abc import Sequence
 
 import equinox as eqx
@@ -505,7 +504,7 @@ def write_svg(
                 f'r="{r:.6g}" fill="{_svg_colour(s.fill)}" '
                 f'stroke="{_svg_colour(s.stroke)}" stroke-width="{s.stroke_width:g}"/>'
             )
-    lines.append(f"  <!-- {xml.sax.saxutils.escape('written by gfxlab.image.write_svg')} -->")
+    lines.append("  <!-- written by gfxlab.image.write_svg -->")
     lines.append("</svg>")
     path = pathlib.Path(path)
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
@@ -544,7 +543,8 @@ def rasterize_shapes(
     Every pixel is sampled on a `supersample x supersample` grid of points; each sample
     takes the colour of the last shape covering it (fill by the even-odd rule, strokes
     with round caps and joins), and the pixel is the mean of its samples (box-filter
-    anti-aliasing).
+    anti-aliasing). The coverage is a step function of the shape parameters, so this is
+    not differentiable with respect to them (soft rasterization belongs to `gfxlab.render`).
 
     **Arguments:**
 
@@ -628,8 +628,7 @@ def _sorting_network(n: int) -> tuple[tuple[int, int], ...]:
     return tuple(pairs)
 
 
-@functools.cache
-def selection_network(n: int, ranks: tuple[int, ...]) -> tuple[tuple[bool, bool, int, int], ...]:
+def selection_network(n: int, ranks: Sequence[int]) -> tuple[tuple[bool, bool, int, int], ...]:
     """A compare-exchange network that leaves the values of `ranks` (0 = smallest) of `n`
     inputs on wires `ranks`.
 
@@ -648,8 +647,14 @@ def selection_network(n: int, ranks: tuple[int, ...]) -> tuple[tuple[bool, bool,
     `keep_min`, `wire[hi] = max(...)` if `keep_max` (both from the old values).
     """
     n = static_int(n, "n", minimum=1)
+    ranks = tuple(sorted({static_int(r, "ranks") for r in ranks}))
     if not ranks or any(not 0 <= r < n for r in ranks):
         raise ValueError(f"`ranks` must be in 0..{n - 1}, got {ranks}")
+    return _selection_network(n, ranks)
+
+
+@functools.cache
+def _selection_network(n: int, ranks: tuple[int, ...]) -> tuple[tuple[bool, bool, int, int], ...]:
     # The minimum or the maximum alone: a chain of n - 1 comparisons beats any pruned sort.
     if ranks == (0,):
         return tuple((True, False, 0, i) for i in range(1, n))

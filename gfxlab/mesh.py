@@ -311,7 +311,7 @@ def obj_text(mesh: Mesh, *, comment: str | None = None, precision: int = 6) -> s
     fmt = " ".join([f"%.{precision}f"] * v.shape[1])
     lines = [f"# {line}" for line in (comment or "").splitlines()]
     lines += ["v " + fmt % tuple(row) for row in v]
-    lines += ["f %d %d %d" % tuple(row) for row in np.asarray(mesh.faces) + 1]
+    lines += [f"f {a} {b} {c}" for a, b, c in np.asarray(mesh.faces) + 1]
     return "\n".join(lines) + "\n"
 
 

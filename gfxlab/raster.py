@@ -13,8 +13,13 @@ forms over all steps at once) and a faithful step-by-step version (`*_steps`,
 tests check that the two agree exactly.
 
 Sizes are static: line endpoints, radii and image shapes are Python ints, because
-they fix how many pixels come out. Continuous inputs (polygon vertices, line
-endpoints of the coverage functions) are traced and differentiable.
+they fix how many pixels come out. The pixels of a line, circle or ellipse therefore
+depend on static ints only: their vectorized closed forms run in NumPy at trace time
+(a constant under `jit`, and no compilation per radius in eager use; the same closed
+forms run in JAX on traced values, which is how the tests check them against the
+`lax.scan` versions for hundreds of radii at once). Continuous inputs (polygon
+vertices, the endpoints of the coverage functions, a circle's centre) may be traced;
+the coverage functions are differentiable.
 """
 
 from __future__ import annotations
@@ -202,6 +207,7 @@ def _bresenham_offsets(d_major, d_minor, k):
     return (2 * k * d_minor + d_major) // np.maximum(2 * d_major, 1)
 
 
+@jax.jit(static_argnames="length")  # compiled once per length
 def _dda_scan(d_major, d_minor, length: int):
     """Stepwise DDA along (major, minor): per step add the increments, then round.
 
@@ -222,6 +228,7 @@ def _dda_scan(d_major, d_minor, length: int):
     return major, minor
 
 
+@jax.jit(static_argnames="length")  # compiled once per length
 def _bresenham_scan(d_major, d_minor, length: int):
     """Textbook Bresenham along (major, minor) with the integer decision parameter."""
 
@@ -424,6 +431,7 @@ def midpoint_circle(radius: int, *, center: tuple[int, int] = (0, 0)) -> Int[Arr
     return _circle_from_octant(_static_circle_octant(radius), radius, center)
 
 
+@jax.jit(static_argnames="length")  # compiled once per length
 def _circle_trace_scan(radius: int, length: int) -> jax.Array:
     r = jnp.asarray(radius, _INT)
 
@@ -496,6 +504,7 @@ def _check_ellipse_radii(rx, ry) -> tuple[int, int]:
     return rx, ry
 
 
+@jax.jit(static_argnames="length")  # compiled once per length
 def _ellipse_trace_scan(rx, ry, length: int) -> jax.Array:
     """The two-region midpoint ellipse loop over a fixed number of iterations.
 
@@ -700,6 +709,11 @@ def inside_polygon(
     check_shape(vertices, "vertices", (None, 2))
     points = as_float(points, "points")
     check_last_dim(points, "points", (2,), "points (x, y)")
+    return _inside_polygon(points, vertices)
+
+
+@jax.jit
+def _inside_polygon(points, vertices):
     a = vertices
     b = jnp.roll(vertices, -1, axis=0)
     px = points[..., None, 0]
@@ -742,6 +756,12 @@ def fill_polygon_scanline(
     height, width = static_shape(shape)
     vertices = _check_vertices(vertices)
     check_shape(vertices, "vertices", (None, 2))
+    return _fill_polygon_scanline(vertices, (height, width))
+
+
+@jax.jit(static_argnames="shape")
+def _fill_polygon_scanline(vertices, shape):
+    height, width = shape
     a = vertices
     b = jnp.roll(vertices, -1, axis=0)
     xs = jnp.arange(width, dtype=vertices.dtype)
@@ -825,9 +845,13 @@ def polygon_coverage(
 
     **Returns:** float `(..., H, W)` coverage in `[0, 1]`.
     """
-    height, width = static_shape(shape)
-    vertices = _check_vertices(vertices)
-    centres = pixel_centers((height, width), vertices.dtype)
+    shape = static_shape(shape)
+    return _polygon_coverage(_check_vertices(vertices), shape)
+
+
+@jax.jit(static_argnames="shape")
+def _polygon_coverage(vertices, shape):
+    centres = pixel_centers(shape, vertices.dtype)
     x0 = centres[..., 0][..., None] - 0.5
     y0 = centres[..., 1][..., None] - 0.5
     x1, y1 = x0 + 1.0, y0 + 1.0
@@ -1062,6 +1086,12 @@ def phosphor_frames(
     refreshes = static_int(refreshes, "refreshes", minimum=1)
     decay = as_float(decay, "decay")
     decay = value_error_if(decay, (decay <= 0) | (decay > 1), "`decay` must be in (0, 1]")
+    return _phosphor_frames(beam, decay, (height, width), num_frames, refreshes)
+
+
+@jax.jit(static_argnames=("shape", "num_frames", "refreshes"))
+def _phosphor_frames(beam, decay, shape, num_frames, refreshes):
+    height, width = shape
     positions = jnp.tile(beam.positions, (refreshes, 1))
     level = jnp.tile(jnp.where(beam.on, beam.intensity, 0.0), refreshes)
     steps = positions.shape[0]

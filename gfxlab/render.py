@@ -32,7 +32,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Bool, Float, Int
+from jaxtyping import Array, Float, Int
 
 from ._checks import as_float, check_shape, common_float, static_int, static_shape, value_error_if
 from .mesh import Mesh, face_normals
@@ -599,9 +599,8 @@ def _obscures(triangles, valid):
         points = jnp.concatenate([pi, pj, cross_pts])
         fi, di = _edge_functions(points, ti[None])
         fj, dj = _edge_functions(points, tj[None])
-        inside = jnp.all(fi[:, 0] >= -tol, -1) & jnp.all(fj[:, 0] >= -tol, -1)
-        inside = inside | jnp.concatenate([jnp.zeros(6, bool), crossing.reshape(9)])
-        inside = inside & jnp.concatenate(
+        # corners of i inside j, corners of j inside i, and real edge crossings
+        inside = jnp.concatenate(
             [jnp.all(fj[:3, 0] >= -tol, -1), jnp.all(fi[3:6, 0] >= -tol, -1),
              crossing.reshape(9)]
         )
@@ -734,12 +733,11 @@ def warnock(triangles: Float[Array, "F 3 3"], colors: Float[Array, "F C"],
         first_rel = jnp.argmax(relevant, -1)
         _, corner_depth = _edge_functions(corners, triangles)  # (n, n, 4, F)
         corner_depth = jnp.where(relevant[..., None, :], corner_depth, jnp.inf)
-        # test 4: a surrounding triangle strictly nearer than every other relevant one
-        nearest_other = jnp.min(
-            jnp.where(jnp.eye(len(valid), dtype=bool)[None, None, None], jnp.inf,
-                      corner_depth[..., None, :]), axis=-1
-        )  # (n, n, 4, F): for each candidate, the nearest other at each corner
-        front = surrounding & jnp.all(corner_depth < nearest_other, axis=-2)
+        # test 4: a surrounding triangle strictly nearer than every other relevant one at
+        # each corner, i.e. the only one at the corner's minimum depth
+        nearest = jnp.min(corner_depth, axis=-1, keepdims=True)  # (n, n, 4, 1)
+        unique = jnp.sum(corner_depth == nearest, axis=-1, keepdims=True) == 1
+        front = surrounding & jnp.all((corner_depth == nearest) & unique, axis=-2)
         test1 = n_rel == 0
         test2 = (n_rel == 1) & (n_sur == 0)
         test3 = (n_rel == 1) & (n_sur == 1)
@@ -842,7 +840,8 @@ def scanline(triangles: Float[Array, "F 3 3"], colors: Float[Array, "F C"],
     (tests, spans), owner = jax.lax.scan(row, (_int(0), _int(0)), jnp.arange(height))
     image = _compose(owner, colors, background)
     itemsize = triangles.dtype.itemsize
-    memory = image.size * image.dtype.itemsize + width * itemsize + triangles.shape[0] * 3 * 4 * itemsize
+    edge_table = triangles.shape[0] * 3 * 4 * itemsize
+    memory = image.size * image.dtype.itemsize + width * itemsize + edge_table
     counters = {"memory_bytes": _int(memory), "depth_tests": tests, "polygon_tests": spans}
     return VisibilityResult(image, None, counters)
 
@@ -867,4 +866,3 @@ def screen_scene(mesh: Mesh, camera: Camera, shape: tuple[int, int], *, light=No
     return scene, corner_colors.mean(axis=1)
 
 
-del Bool

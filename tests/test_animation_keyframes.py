@@ -176,7 +176,8 @@ def test_slerp_matches_scipy_and_same_axis_angles():
     same = A.quat_from_axis_angle(axis, 0.3)
     np.testing.assert_allclose(A.slerp(same, same, 0.4), same, atol=1e-12)
     assert jnp.all(jnp.isfinite(jax.jacfwd(lambda u: A.slerp(same, same, u))(0.4)))
-    check_grads(lambda a, u: A.slerp(q[0], a, u), (jnp.asarray(q[1]), 0.3), order=1)
+    check_grads(lambda a, u: A.slerp(q[0], a, u), (jnp.asarray(q[1]), 0.3), order=1,
+                modes=["rev"])
 
 
 def test_rotation_keys_slerp_and_squad():

@@ -8,6 +8,9 @@ from PIL import Image
 
 from gfxlab import animation as A
 
+# ffmpeg runs as a child process (fork + exec); JAX's fork warning does not apply.
+pytestmark = pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")
+
 T, H, W = 9, 31, 44  # odd height: the 4:2:0 codecs pad it
 
 

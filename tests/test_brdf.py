@@ -98,7 +98,8 @@ def test_lambert_albedo_is_its_albedo():
 def test_analytic_albedos_at_normal_incidence():
     for s in (1.0, 20.0, 300.0):
         # normalised Phong and exactly normalised Blinn-Phong reflect ks at normal incidence
-        assert float(brdf.directional_albedo(brdf.Phong(0.8, s), UP)) == pytest.approx(0.8, abs=1e-4)
+        phong = brdf.directional_albedo(brdf.Phong(0.8, s), UP)
+        assert float(phong) == pytest.approx(0.8, abs=1e-4)
         blinn = brdf.directional_albedo(brdf.BlinnPhong(0.8, s), UP)
         assert float(blinn) == pytest.approx(0.8, abs=1e-4)
         # original Phong: ks * integral cos^s = ks 2 pi / (s + 1), above 1 for broad lobes
@@ -266,12 +267,14 @@ def test_fit_recovers_ggx_parameters():
     measured = brdf.cook_torrance(wi, wo, UP, roughness=0.35, f0=0.6)
 
     def residuals(params):
-        model = brdf.CookTorrance(jnp.exp(params["log_roughness"]), params["f0"])
+        model = brdf.CookTorrance(
+            jnp.exp(params["log_roughness"]), jax.nn.sigmoid(params["logit_f0"])
+        )
         return jnp.log1p(model(wi, wo, UP)) - jnp.log1p(measured)
 
-    result = fit(residuals, {"log_roughness": jnp.log(0.7), "f0": 0.3}, max_steps=40)
+    result = fit(residuals, {"log_roughness": jnp.log(0.7), "logit_f0": 0.0}, max_steps=40)
     assert float(jnp.exp(result.params["log_roughness"])) == pytest.approx(0.35, rel=1e-4)
-    assert float(result.params["f0"]) == pytest.approx(0.6, rel=1e-4)
+    assert float(jax.nn.sigmoid(result.params["logit_f0"])) == pytest.approx(0.6, rel=1e-4)
 
 
 # --------------------------------------------------------------------------- shader

@@ -86,7 +86,7 @@ def test_local_control():
     assert changed.any()
 
 
-@settings(max_examples=40)
+@settings(max_examples=30)
 @given(
     degree=st.integers(0, 4),
     u01=hnp.arrays(np.float64, 16, elements=st.floats(0, 1)),
@@ -137,11 +137,12 @@ def test_bspline_gradients():
     cp = jnp.asarray(np.random.default_rng(4).normal(size=(7, 2)))
     u = jnp.array([0.1, 0.42, 0.6, 0.9])  # away from knots, so spans stay put
     check_grads(jax.jit(lambda c, t, v: curves.bspline(c, 2, v, knots=t)), (cp, knots, u),
-                order=1)
-    check_grads(jax.jit(lambda t, v: curves.bspline_basis(t, 2, v)), (knots, u), order=1)
+                order=1, modes=["rev"])
+    check_grads(jax.jit(lambda t, v: curves.bspline_basis(t, 2, v)), (knots, u), order=1,
+                modes=["rev"])
     weights = jnp.array([1.0, 0.5, 2.0, 1.0, 0.7, 1.2, 1.0])
     check_grads(jax.jit(lambda c, w, t: curves.nurbs(c, w, 2, u, knots=t)),
-                (cp, weights, knots), order=1)
+                (cp, weights, knots), order=1, modes=["rev"])
     # The two evaluations (local triangle and full Cox-de Boor) agree.
     np.testing.assert_allclose(curves.bspline(cp, 2, u, knots=knots),
                                curves.bspline_basis(knots, 2, u) @ cp, atol=1e-14)

@@ -7,7 +7,6 @@ processes shares one xdist worker (`xdist_group("grading")`) and uses small limi
 import csv
 import json
 import pathlib
-import sys
 
 import numpy as np
 import pytest
@@ -230,16 +229,19 @@ def test_sandbox_isolation_layers(tmp_path):
         assert uid != 0
     if prot.drop_privileges or prot.mount_namespace:
         assert readable is None
-    if sys.platform == "linux" and prot.drop_privileges:  # this repo's CI: root with unshare
-        assert prot.network_namespace and prot.pid_namespace
+    assert f"network namespace (no network): {'active' if prot.network_namespace else 'not'}" \
+        in " ".join(lines)
 
 
 # --- the shipped assignments -------------------------------------------------------------
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def built(tmp_path_factory):
-    """Every shipped assignment, assigned (which grades reference and blank) once."""
+    """Every shipped assignment, assigned (which grades reference and blank) once.
+
+    Session scope: xdist may interleave this module with the attack module on one worker.
+    """
     out = {}
     for name, source in SOURCES.items():
         out[name] = assign(source, tmp_path_factory.mktemp(name), limits=LIMITS)
@@ -327,3 +329,35 @@ def test_grader_finishes_when_the_student_process_cannot_start(built):
     assert result.score == 0 and len(result.questions) == 3
     assert any("did not start" in n for n in result.notes)
     assert any("crashed too often" in n for n in result.notes)
+
+
+def test_parse_raw_solution_and_prompt_regions():
+    nb = _notebook(
+        new_cell("raw", "# BEGIN QUESTION\nname: q2\npoints: 5"),
+        new_cell("raw", "# BEGIN SOLUTION"),
+        new_cell("raw", "# BEGIN PROMPT"),
+        new_cell("code", "def triple(x):\n    ..."),
+        new_cell("raw", "# END PROMPT"),
+        new_cell("code", "def triple(x):\n    return 3 * x"),
+        new_cell("raw", "# END SOLUTION"),
+        new_cell("code", "# BEGIN TESTS\ndef test_t(triple):\n    assert triple(1) == 3\n"
+                         "# END TESTS"),
+        new_cell("raw", "# END QUESTION"),
+    )
+    a = parse_notebook(nb)
+    student = [c["source"] for c in a.student["cells"] if c["cell_type"] == "code"]
+    assert student[0] == "def triple(x):\n    ..." and "3 * x" not in "".join(student)
+    assert a.solution_cells == ["def triple(x):\n    return 3 * x"]
+    assert [t.name for t in a.questions[0].tests] == ["test_t"]
+
+
+def test_refuses_to_grade_unconfined(monkeypatch, tmp_path):
+    from gfxlab.grading import IsolationUnavailable, Protections, sandbox
+
+    monkeypatch.setattr(sandbox, "detect_protections", lambda: Protections(False, (), (), ()))
+    monkeypatch.delenv("GFXLAB_GRADING_UNSAFE", raising=False)
+    nb = _otter_style()
+    write_notebook(nb, tmp_path / "src.ipynb")
+    result = assign(tmp_path / "src.ipynb", tmp_path / "out", verify=False)
+    with pytest.raises(IsolationUnavailable, match="refusing to grade"):
+        Autograder(result.autograder).grade_cells(["def double(x):\n    return 2 * x"])

@@ -92,7 +92,12 @@ def _replace_sof(data: bytes, marker: int, precision: int = 8) -> bytes:
         (lambda d: _replace_sof(d, 0xC9), "arithmetic"),
         (lambda d: _replace_sof(d, 0xC3), "lossless"),
         (lambda d: _replace_sof(d, 0xC0, precision=12), "precision 12"),
-        (lambda d: d.replace(b"\xff\xc4\x00\x1f\x00\x00\x01\x05", b"\xff\xc4\x00\x1f\x00\x03\x00\x03"), "bad Huffman table"),
+        (
+            lambda d: d.replace(
+                b"\xff\xc4\x00\x1f\x00\x00\x01\x05", b"\xff\xc4\x00\x1f\x00\x03\x00\x03"
+            ),
+            "bad Huffman table",
+        ),
         (lambda d: d[:2] + d[-2:], "EOI before any image"),
     ],
 )

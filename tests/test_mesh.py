@@ -115,7 +115,15 @@ def test_shipped_model_is_what_the_code_writes(tmp_path):
     shipped = M.shipped_model_path("pawn.obj")
     assert shipped.exists()
     (written,) = M.write_shipped_models(tmp_path)
-    assert shipped.read_bytes() == written.read_bytes()
+    ours, theirs = written.read_text().splitlines(), shipped.read_text().splitlines()
+    assert len(ours) == len(theirs)
+    # the same statements; numbers equal up to the last printed digit (libm may differ)
+    for a, b in zip(ours, theirs, strict=True):
+        if a.startswith("v "):
+            np.testing.assert_allclose(np.array(a.split()[1:], float),
+                                       np.array(b.split()[1:], float), atol=1.5e-6)
+        else:
+            assert a == b
     pawn = M.read_obj(shipped)
     np.testing.assert_allclose(pawn.vertices, M.pawn().vertices, atol=5e-7)
 

@@ -43,14 +43,13 @@ def random_scene(rng, faces, shape, spread=6.0):
     return jnp.asarray((centre + rng.normal(0, spread, (faces, 3, 2))).reshape(-1, 2))
 
 
-@pytest.mark.parametrize("tile_size", [4, 8])
-def test_tiled_silhouette_equals_dense(maybe_jit, tile_size):
+def test_tiled_silhouette_equals_dense(maybe_jit):
     rng = np.random.default_rng(1)
     shape = (29, 37)
     vertices = random_scene(rng, 15, shape)
     faces = jnp.arange(45).reshape(15, 3)
     run = maybe_jit(R.soft_silhouette, static_argnames=("shape", "tile_size", "capacity"))
-    tiled = run(vertices, faces, shape, sigma=2.0, tile_size=tile_size, capacity=16)
+    tiled = run(vertices, faces, shape, sigma=2.0, tile_size=8, capacity=16)
     dense = R._dense_soft_silhouette(vertices, faces, shape, sigma=2.0)
     np.testing.assert_allclose(tiled, dense, atol=1e-6)
     assert float(dense.max()) > 0.9

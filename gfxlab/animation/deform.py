@@ -20,6 +20,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from .. import curves
 from .._checks import (
     as_float,
     check_last_dim,
@@ -75,6 +76,13 @@ def skin(
     weights = value_error_if(
         weights, bad, f"`weights` rows must be non-negative and sum to 1 (within {atol})"
     )
+    return _skin_kernel(vertices, weights, bone_transforms)
+
+
+@jax.jit
+def _skin_kernel(vertices, weights, bone_transforms):
+    n, b = weights.shape
+    d = vertices.shape[-1]
     # Blend the top d rows of the matrices with one GEMM, then apply them.
     flat = bone_transforms[..., :d, :].reshape(bone_transforms.shape[:-3] + (b, d * (d + 1)))
     blended = jnp.einsum("nb,...bk->...nk", weights, flat).reshape(
@@ -143,6 +151,11 @@ def bone_weights(
     d = check_last_dim(vertices, "vertices", (2, 3), "2D or 3D points")
     check_shape(vertices, "vertices", (None, d))
     check_shape(segments, "segments", (None, 2, d))
+    return _weights_kernel(vertices, segments, falloff, power)
+
+
+@jax.jit
+def _weights_kernel(vertices, segments, falloff, power):
     dist = _point_segment_distance(vertices, segments[:, 0], segments[:, 1])
     # log-space normalisation: stable for high powers
     logits = -power * jnp.log(falloff + dist)
@@ -150,32 +163,22 @@ def bone_weights(
 
 
 def bezier_path(control_points: Float[Array, "M d"]) -> Callable[[jax.Array], jax.Array]:
-    """A Bezier curve as a path function `u -> point` (Bernstein form, any degree).
+    """A Bezier curve as a path function `u -> point` for `curve_deform` (any degree).
 
-    Uses `gfxlab.curves.bezier` when that module provides it; otherwise evaluates the
-    Bernstein sum here.
+    Evaluated by `gfxlab.curves.bezier` (Bernstein form); `u` of any shape in `[0, 1]`
+    gives points of shape `(*u.shape, d)`.
     """
     control_points = as_float(control_points, "control_points")
     if control_points.ndim != 2 or control_points.shape[0] < 2:
         raise ValueError(f"`control_points` must have shape (M >= 2, d), got "
                          f"{control_points.shape}")
-    degree = control_points.shape[0] - 1
-    binom = jnp.array([float(_comb(degree, i)) for i in range(degree + 1)], control_points.dtype)
-    i = jnp.arange(degree + 1)
 
     def path(u):
-        u = as_float(u, "u")[..., None]
-        basis = binom * u**i * (1 - u) ** (degree - i)
-        return basis @ control_points
+        u = as_float(u, "u")
+        points = curves.bezier(control_points, u.reshape(-1))
+        return points.reshape(u.shape + control_points.shape[-1:])
 
     return path
-
-
-def _comb(n, k):
-    out = 1
-    for j in range(1, k + 1):
-        out = out * (n - k + j) // j
-    return out
 
 
 def curve_deform(

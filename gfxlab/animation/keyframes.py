@@ -13,12 +13,21 @@ fraction `u` the eased fraction is `y(s)` where `x(s) = u`.
 
 from __future__ import annotations
 
+import functools
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .._checks import as_float, check_shape, common_float, safe_divide, value_error_if
+from .._checks import (
+    as_float,
+    check_shape,
+    common_float,
+    safe_divide,
+    static_int,
+    value_error_if,
+)
 from .quaternions import (
     quat_conjugate,
     quat_exp,
@@ -98,6 +107,12 @@ def cubic_bezier_easing(
     bad = (x1 < 0) | (x1 > 1) | (x2 < 0) | (x2 > 1)
     x1 = value_error_if(x1, bad, "`control` x1 and x2 must lie in [0, 1] (time must not run "
                         "backwards)")
+    iterations = static_int(iterations, "iterations", minimum=1)
+    return _ease_kernel(u, x1, y1, x2, y2, iterations=iterations)
+
+
+@functools.partial(jax.jit, static_argnames=("iterations",))
+def _ease_kernel(u, x1, y1, x2, y2, *, iterations):
     u = jnp.clip(u, 0.0, 1.0)
     sx1, sx2, su = (jax.lax.stop_gradient(a) for a in (x1, x2, u))
     shape = jnp.broadcast_shapes(u.shape, x1.shape)
@@ -176,6 +191,12 @@ def catmull_rom_tangents(
     times, values = _check_keys(times, values)
     if times.shape[0] < 2:
         return jnp.zeros_like(values)
+    times, values = common_float(times, values, names=("times", "values"))
+    return _cardinal_tangents(times, values, jnp.asarray(tension, values.dtype))
+
+
+@jax.jit
+def _cardinal_tangents(times, values, tension):
     expand = (slice(None),) + (None,) * (values.ndim - 1)
     dp = jnp.concatenate([values[1:2] - values[:1], values[2:] - values[:-2],
                           values[-1:] - values[-2:-1]])
@@ -221,6 +242,41 @@ def interpolate(
     times, values = _check_keys(times, values)
     times, values, t = common_float(times, values, t, names=("times", "values", "t"))
     k = times.shape[0]
+    control = m = None
+    if method == "bezier":
+        control = easing
+        if isinstance(control, str):
+            if control not in EASINGS:
+                raise ValueError(f"`easing` must be one of {sorted(EASINGS)} or (x1, y1, x2, "
+                                 f"y2), got {control!r}")
+            control = EASINGS[control]
+        control = as_float(control, "easing").astype(values.dtype)
+        check_shape(control, "easing", (..., 4))
+        if control.ndim == 2 and control.shape[0] != k - 1:
+            raise ValueError(
+                f"`easing` per segment must have shape ({k - 1}, 4), got {control.shape}"
+            )
+        if control.ndim > 2:
+            raise ValueError(f"`easing` must be (4,) or ({k - 1}, 4), got {control.shape}")
+        bad = (control[..., 0] < 0) | (control[..., 0] > 1) | (control[..., 2] < 0) | (
+            control[..., 2] > 1)
+        control = value_error_if(control, bad, "`easing` x1 and x2 must lie in [0, 1] (time "
+                                 "must not run backwards)")
+    elif method == "catmull_rom" and k > 1:
+        m = _cardinal_tangents(times, values, jnp.asarray(tension, values.dtype))
+    elif method == "hermite":
+        if tangents is None:
+            raise ValueError('`tangents` (K, ...) are required for method="hermite"')
+        m = as_float(tangents, "tangents").astype(values.dtype)
+        if m.shape != values.shape:
+            raise ValueError(f"`tangents` must have the shape of `values` {values.shape}, "
+                             f"got {m.shape}")
+    return _interpolate_kernel(times, values, t, m, control, method=method)
+
+
+@functools.partial(jax.jit, static_argnames=("method",))
+def _interpolate_kernel(times, values, t, m, control, *, method):
+    k = times.shape[0]
     i, u = _segment(times, t)
     ch = (None,) * (values.ndim - 1)
     uc = u[(...,) + ch]
@@ -231,27 +287,11 @@ def interpolate(
     if method == "linear" or k == 1:
         return p0 + uc * (p1 - p0)
     if method == "bezier":
-        control = easing
-        if not isinstance(control, str):
-            control = as_float(control, "easing")
-            check_shape(control, "easing", (..., 4))
-            if control.ndim == 2:
-                if control.shape[0] != k - 1:
-                    raise ValueError(
-                        f"`easing` per segment must have shape ({k - 1}, 4), got {control.shape}"
-                    )
-                control = control[i]
-        eased = cubic_bezier_easing(u, control)[(...,) + ch]
+        if control.ndim == 2:
+            control = control[i]
+        x1, y1, x2, y2 = jnp.moveaxis(control, -1, 0)
+        eased = _ease_kernel(u, x1, y1, x2, y2, iterations=24)[(...,) + ch]
         return p0 + eased * (p1 - p0)
-    if method == "catmull_rom":
-        m = catmull_rom_tangents(times, values, tension=tension)
-    else:
-        if tangents is None:
-            raise ValueError('`tangents` (K, ...) are required for method="hermite"')
-        m = as_float(tangents, "tangents").astype(values.dtype)
-        if m.shape != values.shape:
-            raise ValueError(f"`tangents` must have the shape of `values` {values.shape}, "
-                             f"got {m.shape}")
     h = (times[jnp.minimum(i + 1, k - 1)] - times[i])[(...,) + ch]
     m0, m1 = m[i], m[jnp.minimum(i + 1, k - 1)]
     u2, u3 = uc * uc, uc * uc * uc
@@ -295,10 +335,15 @@ def interpolate_rotations(
     times, quats = _check_keys(times, quats, "quats")
     check_shape(quats, "quats", (None, 4))
     times, quats, t = common_float(times, quats, t, names=("times", "quats", "t"))
-    q = _align_signs(quat_normalize(quats))
+    return _rotations_kernel(times, quat_normalize(quats), t, method=method)
+
+
+@functools.partial(jax.jit, static_argnames=("method",))
+def _rotations_kernel(times, quats, t, *, method):
+    q = _align_signs(quats)
     k = times.shape[0]
     if method == "step" or k == 1:
-        return interpolate(times, q, t, method="step")
+        return _interpolate_kernel(times, q, t, None, None, method="step")
     i, u = _segment(times, t)
     q0, q1 = q[i], q[i + 1]
     if method == "slerp":

@@ -7,6 +7,8 @@ value/gradient noise for secondary motion (wobble, breathing, camera shake).
 
 from __future__ import annotations
 
+import functools
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -370,7 +372,11 @@ def value_noise(x: Float[Array, "*batch dim"], *, seed: int = 0) -> Float[Array,
     integer points, C2 smooth in between.
     """
     x = _noise_points(x, "x")
-    seed = static_int(seed, "seed")
+    return _value_noise(x, seed=static_int(seed, "seed"))
+
+
+@functools.partial(jax.jit, static_argnames=("seed",))
+def _value_noise(x, *, seed):
     return _lattice_blend(x, lambda ij, _: 2 * _hash(ij, seed).astype(x.dtype) - 1)
 
 
@@ -384,7 +390,11 @@ def gradient_noise(x: Float[Array, "*batch dim"], *, seed: int = 0) -> Float[Arr
     **Arguments:** as `value_noise`. **Returns:** values roughly in `[-1, 1]`.
     """
     x = _noise_points(x, "x")
-    seed = static_int(seed, "seed")
+    return _gradient_noise(x, seed=static_int(seed, "seed"))
+
+
+@functools.partial(jax.jit, static_argnames=("seed",))
+def _gradient_noise(x, *, seed):
     dim = x.shape[-1]
 
     def ramp(ij, offset):

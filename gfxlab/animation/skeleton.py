@@ -17,6 +17,7 @@ that touched its limit can come back (gradient descent stalls on a flat `tanh`).
 
 from __future__ import annotations
 
+import functools
 from typing import NamedTuple
 
 import equinox as eqx
@@ -168,15 +169,20 @@ def forward_kinematics(
     """
     pose = _check_pose(skeleton, pose)
     rest, pose = common_float(skeleton.rest, pose, names=("skeleton.rest", "pose"))
+    return _fk_kernel(rest, pose, parents=skeleton.parents)
+
+
+@functools.partial(jax.jit, static_argnames=("parents",))
+def _fk_kernel(rest, pose, *, parents):
     local = rest @ pose
-    parents = jnp.array([max(p, 0) for p in skeleton.parents])
-    is_root = jnp.array([p < 0 for p in skeleton.parents])[:, None, None]
     depth = 0
-    for p in skeleton.parents:
+    for p in parents:
         level = 0
         while p >= 0:
-            level, p = level + 1, skeleton.parents[p]
+            level, p = level + 1, parents[p]
         depth = max(depth, level)
+    is_root = jnp.array([p < 0 for p in parents])[:, None, None]
+    parents = jnp.array([max(p, 0) for p in parents])
     glob = local
     for _ in range(depth):
         glob = jnp.where(is_root, local, glob[..., parents, :, :] @ local)

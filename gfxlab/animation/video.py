@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import struct
+import warnings
 
 import numpy as np
 
@@ -92,10 +93,19 @@ def save_animation(frames, path, *, fps: float = 24, format: str | None = None,
         frames = np.pad(frames, ((0, 0), (0, pad_h), (0, pad_w), (0, 0)), mode="edge")
     import imageio_ffmpeg
 
-    t, h, w, _ = frames.shape
     params = ["-f", muxer]
     if codec == "libvpx":
         params += ["-deadline", "realtime", "-b:v", "1M"]
+    with warnings.catch_warnings():
+        # JAX warns on every fork; ffmpeg runs as a separate process (fork + exec), which
+        # is safe.
+        warnings.filterwarnings("ignore", message=r"os\.fork\(\) was called")
+        _encode(imageio_ffmpeg, frames, path, fps, codec, pix_fmt, quality, params)
+    return path
+
+
+def _encode(imageio_ffmpeg, frames, path, fps, codec, pix_fmt, quality, params):
+    _, h, w, _ = frames.shape
     writer = imageio_ffmpeg.write_frames(
         path, (w, h), fps=fps, codec=codec, pix_fmt_out=pix_fmt, quality=quality,
         macro_block_size=1, output_params=params, ffmpeg_log_level="error",
@@ -106,7 +116,6 @@ def save_animation(frames, path, *, fps: float = 24, format: str | None = None,
             writer.send(frame.tobytes())
     finally:
         writer.close()
-    return path
 
 
 def _save_gif(frames: np.ndarray, path: str, fps: float) -> None:

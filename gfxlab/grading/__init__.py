@@ -27,7 +27,7 @@ from .grader import (
     check_array,
     grade_many,
 )
-from .sandbox import Limits, Protections, Sandbox, detect_protections
+from .sandbox import IsolationUnavailable, Limits, Protections, Sandbox, detect_protections
 
 __all__ = [
     "Assignment",
@@ -35,6 +35,7 @@ __all__ = [
     "Autograder",
     "Feedback",
     "GradeResult",
+    "IsolationUnavailable",
     "Limits",
     "Protections",
     "QuestionResult",

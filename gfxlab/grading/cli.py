@@ -8,7 +8,7 @@ import pathlib
 import sys
 
 from . import authoring, grader
-from .sandbox import detect_protections
+from .sandbox import IsolationUnavailable, detect_protections
 
 
 def _limit_args(parser: argparse.ArgumentParser) -> None:
@@ -129,4 +129,8 @@ def main(command: str, argv: list[str]) -> int:
     if command not in handlers:
         print(f"unknown grading command {command!r}", file=sys.stderr)
         return 2
-    return handlers[command](list(argv))
+    try:
+        return handlers[command](list(argv))
+    except IsolationUnavailable as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1

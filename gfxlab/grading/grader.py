@@ -38,6 +38,7 @@ from .sandbox import (
     StudentError,
     Timeout,
     detect_protections,
+    require_confinement,
 )
 
 FORMAT = 1
@@ -387,7 +388,10 @@ class Autograder:
     def solution_cells(self) -> list[str]:
         return json.loads((self.directory / "solution.json").read_text())
 
-    def limits(self, overrides: dict | None = None) -> Limits:
+    def limits(self, overrides: dict | Limits | None = None) -> Limits:
+        """The assignment's limits (config `limits`), with `overrides` (dict or `Limits`)."""
+        if isinstance(overrides, Limits):
+            return overrides
         values = {**self.config.get("limits", {}), **(overrides or {})}
         return dataclasses.replace(Limits(), **values)
 
@@ -411,11 +415,16 @@ class Autograder:
             self.grade_cells(self.solution_cells(), label="reference", trusted=True)
 
     def grade_cells(self, cells, *, label="submission", hide=(), limits=None,
-                    public_only=False, trusted=False) -> GradeResult:
+                    public_only=False, trusted=False, confine=True) -> GradeResult:
         """Grade a list of code-cell sources (the student's code).
 
         `trusted=True` (the reference solution only) lets the run write the JAX cache.
+        With `confine` (default) untrusted code only runs where the sandbox can confine it
+        (`IsolationUnavailable` otherwise); `check` turns it off: a student checking their
+        own notebook runs only their own code.
         """
+        if confine and not trusted:
+            require_confinement()
         started = time.perf_counter()
         if not trusted:
             self.warm_cache()
@@ -584,7 +593,8 @@ def check(notebook, *, limits=None) -> GradeResult:
     grader.config = {"assignment": meta.get("assignment", path.stem), "questions": []}
     grader.questions = [q for q in questions if q.tests]
     grader._namespaces = {q.name: load_tests(sources[q.name], q.name) for q in grader.questions}
-    return grader.grade_cells(authoring.student_code_cells(nb), label=path.name, limits=limits)
+    return grader.grade_cells(authoring.student_code_cells(nb), label=path.name, limits=limits,
+                              confine=False)
 
 
 def _grade_one(args):
@@ -614,6 +624,7 @@ def grade_many(submissions, autograder_dir, out_dir, *, jobs=None, limits=None):
     submissions = [str(pathlib.Path(s).resolve()) for s in submissions]
     jobs = jobs or os.cpu_count() or 1
     directory = str(pathlib.Path(autograder_dir).resolve())
+    require_confinement()
     grader = Autograder(directory)
     grader.warm_cache()  # once, before the pool, so parallel graders never race on it
     tasks = [(directory, s, limits) for s in submissions]

@@ -84,6 +84,15 @@ class Protections:
     notes: tuple[str, ...] = ()
 
     @property
+    def confined(self) -> bool:
+        """Can the student process neither signal nor read as the grader's user?
+
+        A student process with the grader's uid and no pid namespace could kill every
+        process of that user (as root: every process on the machine) with `kill(-1)`.
+        """
+        return self.drop_privileges or (self.pid_namespace and os.geteuid() != 0)
+
+    @property
     def network_namespace(self) -> bool:
         return "--net" in self.unshare_flags
 
@@ -202,6 +211,24 @@ def _probe(flags, drop, expose) -> bool:
         shutil.rmtree(workdir, ignore_errors=True)
 
 
+class IsolationUnavailable(RuntimeError):
+    """This machine cannot confine untrusted student code (see `Protections.confined`)."""
+
+
+def require_confinement() -> None:
+    """Refuse to run untrusted code unconfined, unless `GFXLAB_GRADING_UNSAFE=1`."""
+    prot = detect_protections()
+    if prot.confined or os.environ.get("GFXLAB_GRADING_UNSAFE") == "1":
+        return
+    raise IsolationUnavailable(
+        "refusing to grade: the student process could not be confined here (it would run "
+        "with the grader's own uid and no pid namespace, so it could signal or kill the "
+        "grader's processes). Run the grader as root with `unshare` available, make the "
+        "Python installation readable by other users, or set GFXLAB_GRADING_UNSAFE=1 to "
+        "accept the risk. " + " ".join(prot.notes)
+    )
+
+
 class SandboxError(Exception):
     """The student process failed to answer; the message is shown to the student."""
 
@@ -293,6 +320,14 @@ class Sandbox:
                 hidden.append(str(path))
         return tuple(sorted(set(hidden))), tuple(sorted(set(skipped)))
 
+    def _rlimits(self) -> dict[str, int]:
+        limits = self.limits.rlimits()
+        if self.uid is None:
+            # RLIMIT_NPROC counts every task of the uid: sharing the grader's uid, allow
+            # what that uid already runs plus the student's share.
+            limits["RLIMIT_NPROC"] += _tasks_of(os.getuid())
+        return limits
+
     @property
     def alive(self) -> bool:
         return self.proc is not None and self.proc.poll() is None
@@ -329,7 +364,7 @@ class Sandbox:
             "private_tmp": ["/tmp", "/var/tmp", "/dev/shm"] if prot.mount_namespace else [],
             "tmp_mb": int(self.limits.tmp_mb),
             "jax_cache": cache,
-            "rlimits": self.limits.rlimits(),
+            "rlimits": self._rlimits(),
             "workdir": self.workdir,
             "uid": self.uid,
             "gid": self.uid,
@@ -487,6 +522,19 @@ class Sandbox:
 
 
 _CACHE_TARGET = "/tmp/.gfxlab-jax-cache"
+
+
+def _tasks_of(uid: int) -> int:
+    """Threads of all processes of `uid` (what RLIMIT_NPROC counts)."""
+    count = 0
+    for entry in os.scandir("/proc") if os.path.isdir("/proc") else ():
+        if entry.name.isdigit():
+            try:
+                if entry.stat().st_uid == uid:
+                    count += len(os.listdir(os.path.join(entry.path, "task")))
+            except OSError:
+                pass
+    return count
 
 
 def _chown_tree(path: str, uid: int | None) -> None:

@@ -95,8 +95,16 @@ def _idct_1d(x):
     z3 = z3 * -c["1_961570560"] + z5
     z4 = z4 * -c["0_390180644"] + z5
     t0, t1, t2, t3 = t0 + z1 + z3, t1 + z2 + z4, t2 + z2 + z3, t3 + z1 + z4
-    return [tmp10 + t3, tmp11 + t2, tmp12 + t1, tmp13 + t0,
-            tmp13 - t0, tmp12 - t1, tmp11 - t2, tmp10 - t3]
+    return [
+        tmp10 + t3,
+        tmp11 + t2,
+        tmp12 + t1,
+        tmp13 + t0,
+        tmp13 - t0,
+        tmp12 - t1,
+        tmp11 - t2,
+        tmp10 - t3,
+    ]
 
 
 _DCT_CONSTANTS = {
@@ -125,24 +133,29 @@ IDCT_MATRIX = _matrix(_idct_1d)
 
 
 def _descale(p, n: int, xp):
-    if _is_numpy(xp) and p.dtype.kind == "f":
-        return np.floor((p + float(1 << (n - 1))) * (1.0 / (1 << n)))
     return xp.right_shift(p + (1 << (n - 1)), n)
 
 
-def _matmul(a, b, xp):
-    """Exact integer matrix product: float64 BLAS in NumPy (all values < 2**53),
-    wrapping int32 in JAX (libjpeg's own INT32 arithmetic)."""
+def _right_multiply(x, m, xp):
+    """`x @ m` for a stack `(..., 8, 8)` and an integer matrix `m`, exactly: int64 in
+    NumPy (no BLAS: its threads only get in the way for 8-wide products), wrapping int32
+    in JAX (the 32-bit arithmetic libjpeg itself uses)."""
     if _is_numpy(xp):
-        return np.matmul(np.asarray(a, np.float64), np.asarray(b, np.float64))
-    return xp.matmul(a.astype(np.int32), xp.asarray(b, np.int32))
+        flat = np.asarray(x, np.int64).reshape(-1, 8)
+        return (flat @ m.astype(np.int64)).reshape(x.shape)
+    return xp.matmul(x.astype(np.int32), xp.asarray(m, np.int32))
+
+
+def _left_multiply(m, x, xp):
+    """`m @ x` for a stack `(..., 8, 8)`."""
+    return xp.swapaxes(_right_multiply(xp.swapaxes(x, -1, -2), m.T, xp), -1, -2)
 
 
 def fdct_islow(blocks, xp):
     """jfdctint.c on level-shifted samples `(..., 8, 8)`; output scaled by 8."""
     m = FDCT_MATRIX
-    rows = _descale(_matmul(blocks, m.T, xp), CONST_BITS - PASS1_BITS, xp)
-    out = _descale(_matmul(m, rows, xp), CONST_BITS + PASS1_BITS, xp)
+    rows = _descale(_right_multiply(blocks, m.T, xp), CONST_BITS - PASS1_BITS, xp)
+    out = _descale(_left_multiply(m, rows, xp), CONST_BITS + PASS1_BITS, xp)
     return out.astype(np.int64) if _is_numpy(xp) else out.astype(np.int32)
 
 
@@ -150,8 +163,8 @@ def idct_islow(coefficients, table, xp):
     """jidctint.c: dequantize, inverse DCT, range-limit; returns samples 0..255."""
     m = IDCT_MATRIX
     deq = coefficients * xp.asarray(table).astype(coefficients.dtype)
-    cols = _descale(_matmul(m, deq, xp), CONST_BITS - PASS1_BITS, xp)
-    out = _descale(_matmul(cols, m.T, xp), CONST_BITS + PASS1_BITS + 3, xp)
+    cols = _descale(_left_multiply(m, deq, xp), CONST_BITS - PASS1_BITS, xp)
+    out = _descale(_right_multiply(cols, m.T, xp), CONST_BITS + PASS1_BITS + 3, xp)
     out = out.astype(_int(xp))
     # libjpeg indexes its range-limit table with `x & 1023`: wraps far outliers.
     wrapped = xp.bitwise_and(out, 1023)

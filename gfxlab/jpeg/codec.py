@@ -62,9 +62,7 @@ def _check_quality(quality) -> int:
 
 def _check_subsampling(subsampling) -> tuple[int, int]:
     if subsampling not in SUBSAMPLING:
-        raise ValueError(
-            f"`subsampling` must be one of {sorted(SUBSAMPLING)}, got {subsampling!r}"
-        )
+        raise ValueError(f"`subsampling` must be one of {sorted(SUBSAMPLING)}, got {subsampling!r}")
     return SUBSAMPLING[subsampling]
 
 
@@ -73,9 +71,7 @@ def _as_uint8(image) -> np.ndarray:
     if arr.ndim == 3 and arr.shape[-1] == 1:
         arr = arr[..., 0]
     if arr.ndim not in (2, 3) or (arr.ndim == 3 and arr.shape[-1] != 3):
-        raise ValueError(
-            f"`image` must have shape (H, W), (H, W, 1) or (H, W, 3), got {arr.shape}"
-        )
+        raise ValueError(f"`image` must have shape (H, W), (H, W, 1) or (H, W, 3), got {arr.shape}")
     if arr.shape[0] < 1 or arr.shape[1] < 1 or max(arr.shape[:2]) > 65535:
         raise ValueError(f"`image` must be 1..65535 pixels on each side, got {arr.shape}")
     if arr.dtype == np.uint8:
@@ -118,11 +114,16 @@ def _setup(arr, quality, luma_factors):
         # Like Pillow, a grey file records the luma sampling factors of `subsampling`
         # (a lone component is coded block by block, so the data do not change).
         return [arr.astype(np.int64)], [luma_factors], [luma], [0]
-    return list(L.rgb_to_ycc(arr, np)), [luma_factors, (1, 1), (1, 1)], [luma, chroma, chroma], [
-        0,
-        1,
-        1,
-    ]
+    return (
+        list(L.rgb_to_ycc(arr, np)),
+        [luma_factors, (1, 1), (1, 1)],
+        [luma, chroma, chroma],
+        [
+            0,
+            1,
+            1,
+        ],
+    )
 
 
 # --- encoder ----------------------------------------------------------------------
@@ -156,8 +157,13 @@ def _scan_order(coefs, factors, height, width):
     return blocks.reshape(-1, 64), ids
 
 
+_BIT_LENGTH = np.zeros(1 << 16, np.int64)
+for _bits in range(1, 17):
+    _BIT_LENGTH[1 << (_bits - 1) : 1 << _bits] = _bits
+
+
 def _bit_length(x: np.ndarray) -> np.ndarray:
-    return np.frexp(np.abs(x).astype(np.float64))[1].astype(np.int64)
+    return _BIT_LENGTH[np.abs(x)]
 
 
 def _code_arrays(spec, size: int):
@@ -168,67 +174,73 @@ def _code_arrays(spec, size: int):
     return codes, lengths
 
 
-_DC_CODES = [_code_arrays(DC_LUMINANCE, 16), _code_arrays(DC_CHROMINANCE, 16)]
-_AC_CODES = [_code_arrays(AC_LUMINANCE, 256), _code_arrays(AC_CHROMINANCE, 256)]
+def _code_table(specs, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Codes and lengths indexed by [table id, symbol] (length 0: no code)."""
+    pairs = [_code_arrays(spec, size) for spec in specs]
+    return np.stack([c for c, _ in pairs]), np.stack([n for _, n in pairs])
+
+
+_DC_CODE, _DC_LEN = _code_table((DC_LUMINANCE, DC_CHROMINANCE), 16)
+_AC_CODE, _AC_LEN = _code_table((AC_LUMINANCE, AC_CHROMINANCE), 256)
 
 
 def _huffman_events(blocks, components, table_ids):
     """Every Huffman event of the scan as `(value, length)`, in stream order.
 
     `components[i]` / `table_ids[i]`: component and table (0 luma, 1 chroma) of block i.
+    Per block the events are: the DC difference, then for each nonzero AC coefficient
+    its ZRLs (one per 16 preceding zeros) and its (run, size) symbol, then EOB if the
+    block ends in zeros. Work is proportional to the number of nonzero coefficients.
     """
     n = blocks.shape[0]
-    dc_code = np.stack([c for c, _ in _DC_CODES])[table_ids]
-    dc_len = np.stack([ln for _, ln in _DC_CODES])[table_ids]
-    ac_code = np.stack([c for c, _ in _AC_CODES])
-    ac_len = np.stack([ln for _, ln in _AC_CODES])
+    nz_b, nz_k = np.nonzero(blocks[:, 1:])  # sorted by block, then zig-zag position
+    value = blocks[nz_b, nz_k + 1].astype(np.int64)
+    same_block = np.concatenate([[False], nz_b[1:] == nz_b[:-1]])
+    previous = np.where(same_block, np.concatenate([[-1], nz_k[:-1]]), -1)
+    run = nz_k - previous - 1
+    zrl = run >> 4
+    last = np.concatenate([nz_b[1:] != nz_b[:-1], [True]]) if nz_b.size else np.zeros(0, bool)
+    last_k = np.full(n, -1)
+    last_k[nz_b[last]] = nz_k[last]
+    eob = last_k < 62
 
-    ac = blocks[:, 1:]
-    nonzero = ac != 0
-    index = np.arange(63)
-    last_seen = np.maximum.accumulate(np.where(nonzero, index, -1), axis=1)
-    previous = np.concatenate([np.full((n, 1), -1), last_seen[:, :-1]], axis=1)
-    run = index - previous - 1
-    zrl = np.where(nonzero, run // 16, 0)
-    size = _bit_length(ac)
-    extra = np.where(ac < 0, ac + (1 << size) - 1, ac)
-    eob = last_seen[:, -1] < 62
+    per_nz = zrl + 1
+    per_block = np.bincount(nz_b, weights=per_nz, minlength=n).astype(np.int64)
+    events = 1 + per_block + eob
+    start = np.cumsum(events) - events
+    before = np.cumsum(per_block) - per_block
+    main = start[nz_b] + np.cumsum(per_nz) - before[nz_b]
 
-    counts = np.zeros((n, 65), np.int64)
-    counts[:, 0] = 1
-    counts[:, 1:64] = np.where(nonzero, zrl + 1, 0)
-    counts[:, 64] = eob
-    flat = counts.ravel()
-    start = (np.cumsum(flat) - flat).reshape(n, 65)
-    total = int(flat.sum())
-    values = np.zeros(total, np.int64)
-    lengths = np.zeros(total, np.int64)
+    total = int(events.sum())
+    values = np.empty(total, np.int64)
+    lengths = np.empty(total, np.int64)
 
-    # DC differences, per component, in scan order
     dc = blocks[:, 0].astype(np.int64)
     diff = np.empty_like(dc)
     for c in np.unique(components):
         sel = components == c
         diff[sel] = np.diff(dc[sel], prepend=0)
     cat = _bit_length(diff)
-    rows = np.arange(n)
-    values[start[:, 0]] = (dc_code[rows, cat] << cat) | np.where(diff < 0, diff + (1 << cat) - 1, diff)
-    lengths[start[:, 0]] = dc_len[rows, cat] + cat
+    values[start] = (_DC_CODE[table_ids, cat] << cat) | np.where(
+        diff < 0, diff + (1 << cat) - 1, diff
+    )
+    lengths[start] = _DC_LEN[table_ids, cat] + cat
 
-    b, k = np.nonzero(nonzero)
-    t = table_ids[b]
-    symbol = (run[b, k] % 16) * 16 + size[b, k]
-    slot = start[b, k + 1] + zrl[b, k]
-    values[slot] = (ac_code[t, symbol] << size[b, k]) | extra[b, k]
-    lengths[slot] = ac_len[t, symbol] + size[b, k]
-    for j in range(3):
-        has = zrl[b, k] > j
-        at = start[b[has], k[has] + 1] + j
-        values[at] = ac_code[t[has], 0xF0]
-        lengths[at] = ac_len[t[has], 0xF0]
-    be = np.flatnonzero(eob)
-    values[start[be, 64]] = ac_code[table_ids[be], 0]
-    lengths[start[be, 64]] = ac_len[table_ids[be], 0]
+    t = table_ids[nz_b]
+    size = _bit_length(value)
+    symbol = (run & 15) << 4 | size
+    values[main] = (_AC_CODE[t, symbol] << size) | np.where(
+        value < 0, value + (1 << size) - 1, value
+    )
+    lengths[main] = _AC_LEN[t, symbol] + size
+    for j in range(1, 4):
+        has = zrl >= j
+        at = main[has] - j
+        values[at] = _AC_CODE[t[has], 0xF0]
+        lengths[at] = _AC_LEN[t[has], 0xF0]
+    at = (start + events - 1)[eob]
+    values[at] = _AC_CODE[table_ids[eob], 0]
+    lengths[at] = _AC_LEN[table_ids[eob], 0]
     return values, lengths
 
 
@@ -512,6 +524,10 @@ def _decode_scan(data: bytes, schedule, n_mcu: int, restart: int, huff: dict):
     return np.asarray(dcs, np.int64), np.asarray(ac_index, np.int64), np.asarray(ac_value, np.int64)
 
 
+def _cdiv(a: int, b: int) -> int:
+    return -(-a // b)
+
+
 def _blocks_per_component(coef, comps, order, height, width):
     """Scan-order blocks `(N, 64)` (zig-zag) -> per frame component, natural order,
     `(rows, cols, 8, 8)` real blocks."""
@@ -522,8 +538,8 @@ def _blocks_per_component(coef, comps, order, height, width):
     out = {}
     if len(order) == 1:
         cid, h, v, _ = comps[order[0]]
-        rows = -(-(-(-height * v // vmax)) // 8)
-        cols = -(-(-(-width * h // hmax)) // 8)
+        rows = _cdiv(_cdiv(height * v, vmax), 8)
+        cols = _cdiv(_cdiv(width * h, hmax), 8)
         out[order[0]] = natural.reshape(rows, cols, 8, 8)
         return out
     mcu_x = -(-width // (8 * hmax))
@@ -535,8 +551,8 @@ def _blocks_per_component(coef, comps, order, height, width):
         part = per_mcu[:, first : first + h * v].reshape(mcu_y, mcu_x, v, h, 8, 8)
         first += h * v
         grid = part.transpose(0, 2, 1, 3, 4, 5).reshape(mcu_y * v, mcu_x * h, 8, 8)
-        rows = -(-(-(-height * v // vmax)) // 8)
-        cols = -(-(-(-width * h // hmax)) // 8)
+        rows = _cdiv(_cdiv(height * v, vmax), 8)
+        cols = _cdiv(_cdiv(width * h, hmax), 8)
         out[i] = grid[:rows, :cols]
     return out
 
@@ -631,8 +647,8 @@ def _decode_image(frame, sos: bytes, data: bytes, quant, huff, restart) -> np.nd
     hmax = max(c[1] for c in comps)
     vmax = max(c[2] for c in comps)
     if ns == 1:
-        _, h, v, _ = comps[0]
-        n_mcu = -(-(-(-height * v // vmax)) // 8) * -(-(-(-width * h // hmax)) // 8)
+        _, h, v, _ = comps[order[0]]
+        n_mcu = _cdiv(_cdiv(height * v, vmax), 8) * _cdiv(_cdiv(width * h, hmax), 8)
     else:
         n_mcu = -(-width // (8 * hmax)) * -(-height // (8 * vmax))
     dcs, ac_index, ac_value = _decode_scan(data, schedule, n_mcu, restart, huff)

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 from jaxtyping import Array, Float
 
 from gfxlab._checks import as_float
@@ -24,7 +23,16 @@ __all__ = ["compress", "exact_tables"]
 
 
 def exact_tables(quality) -> tuple[Array, Array]:
-    """IJG integer tables for a (possibly traced) quality, rounded to 1..100."""
+    """IJG integer tables for a possibly traced quality (rounded, clipped to 1..100).
+
+    **Arguments:**
+
+    - `quality`: scalar (may be traced, e.g. a fitted parameter).
+
+    **Returns:**
+
+    `(luminance, chrominance)` int32 `(8, 8)` tables, equal to `quant_tables`.
+    """
     q = jnp.clip(jnp.round(jnp.asarray(quality)), 1, 100).astype(jnp.int32)
     scale = jnp.where(q < 50, 5000 // q, 200 - 2 * q)
     return tuple(
@@ -63,7 +71,9 @@ def _twin(image, quality, factors, rounding):
         name = {(1, 1): "4:4:4", (2, 1): "4:2:2", (2, 2): "4:2:0"}[(hmax // h, vmax // v)]
         small = S.subsample(plane, subsampling=name)
         coefs = S.dct2(S.level_shift(S.blocks(small)))
-        rec = S.idct2(S.dequantize(S.quantize(coefs, table.astype(coefs.dtype), rounding=rounding), table))
+        rec = S.idct2(
+            S.dequantize(S.quantize(coefs, table.astype(coefs.dtype), rounding=rounding), table)
+        )
         rec = S.unblocks(S.level_shift(rec, inverse=True), small.shape)
         out.append(S.upsample(rec, (height, width), subsampling=name))
     if image.ndim == 2:
@@ -109,9 +119,7 @@ def compress(
     if image.ndim not in (2, 3) or (image.ndim == 3 and image.shape[-1] != 3):
         raise ValueError(f"`image` must have shape (H, W) or (H, W, 3), got {image.shape}")
     if subsampling not in SUBSAMPLING:
-        raise ValueError(
-            f"`subsampling` must be one of {sorted(SUBSAMPLING)}, got {subsampling!r}"
-        )
+        raise ValueError(f"`subsampling` must be one of {sorted(SUBSAMPLING)}, got {subsampling!r}")
     if rounding not in ("ste", "cubic"):
         raise ValueError(f"`rounding` must be 'ste' or 'cubic', got {rounding!r}")
     quality = as_float(quality, "quality")
@@ -124,9 +132,16 @@ def compress(
 
 
 def psnr(a, b, *, peak: float = 1.0) -> Array:
-    """Peak signal-to-noise ratio in dB (inf for identical images)."""
+    """Peak signal-to-noise ratio `10 log10(peak**2 / MSE)` in dB.
+
+    **Arguments:**
+
+    - `a`, `b`: images of the same shape.
+    - `peak`: the largest possible value (1 for float images, 255 for uint8).
+
+    **Returns:**
+
+    Scalar PSNR (inf for identical images).
+    """
     mse = jnp.mean((jnp.asarray(a, float) - jnp.asarray(b, float)) ** 2)
     return 10 * jnp.log10(peak**2 / mse)
-
-
-

@@ -103,9 +103,7 @@ def ycbcr_to_rgb(ycbcr: Float[Array, "*batch 3"]) -> Float[Array, "*batch 3"]:
 
 def _factors(subsampling) -> tuple[int, int]:
     if subsampling not in SUBSAMPLING:
-        raise ValueError(
-            f"`subsampling` must be one of {sorted(SUBSAMPLING)}, got {subsampling!r}"
-        )
+        raise ValueError(f"`subsampling` must be one of {sorted(SUBSAMPLING)}, got {subsampling!r}")
     return SUBSAMPLING[subsampling]
 
 

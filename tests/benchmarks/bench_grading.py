@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import pathlib
+import shutil
 import sys
 import tempfile
 import time
@@ -99,6 +100,7 @@ def main() -> None:
     table.add("total", sum(r[1] for r in table.rows), None,
               f"{cheats} successful cheats; slowest run {worst:.1f} s")
     table.print()
+    shutil.rmtree(work, ignore_errors=True)
 
 
 if __name__ == "__main__":

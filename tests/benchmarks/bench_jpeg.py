@@ -1,0 +1,139 @@
+"""Benchmarks for gfxlab.jpeg against Pillow (libjpeg-turbo).
+
+- `encode` of a 512 x 512 RGB photograph-like image at quality 75, and the fraction of
+  byte-identical files over a set of images, qualities and subsamplings;
+- `decode` of the same file;
+- `compress` (differentiable round trip) against Pillow's real round trip: PSNR over
+  q = 1..95 (identical outputs have infinite PSNR);
+- a longer fuzz run of `decode` on mutated files.
+"""
+
+from __future__ import annotations
+
+import io
+import sys
+import time
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from harness import Table, timeit
+from PIL import Image
+
+from gfxlab import jpeg
+
+SUBSAMPLING = {"4:4:4": 0, "4:2:2": 1, "4:2:0": 2}
+
+
+def _scene(height: int, width: int, seed: int) -> np.ndarray:
+    try:
+        from gfxlab.image import synthetic_scene
+
+        img = np.asarray(synthetic_scene((height, width), seed=seed))
+        return (
+            np.clip(np.round(img * 255), 0, 255).astype(np.uint8) if img.dtype != np.uint8 else img
+        )
+    except Exception:  # fall back to a procedural image of our own
+        rng = np.random.default_rng(seed)
+        y, x = np.mgrid[:height, :width] / max(height, width)
+        img = np.stack([0.5 + 0.4 * np.sin(9 * x + 3 * y), 0.5 + 0.3 * np.cos(13 * y), x * y], -1)
+        img = img + 0.04 * rng.normal(size=img.shape)
+        return (np.clip(img, 0, 1) * 255).astype(np.uint8)
+
+
+def _pillow(img, quality, subsampling="4:2:0") -> bytes:
+    buf = io.BytesIO()
+    Image.fromarray(img).save(buf, "JPEG", quality=quality, subsampling=SUBSAMPLING[subsampling])
+    return buf.getvalue()
+
+
+def main() -> None:
+    photo = _scene(512, 512, 0)
+    table = Table("gfxlab.jpeg vs Pillow (libjpeg-turbo)", "Pillow")
+    data = jpeg.encode(photo, quality=75)
+    table.add(
+        "encode 512x512 RGB q=75 4:2:0",
+        timeit(lambda: jpeg.encode(photo, quality=75), repeat=5),
+        timeit(lambda: _pillow(photo, 75), repeat=5),
+        f"byte-identical: {data == _pillow(photo, 75)}",
+    )
+    grey = photo[..., 1].copy()
+    table.add(
+        "encode 512x512 grey q=75",
+        timeit(lambda: jpeg.encode(grey, quality=75, subsampling="4:4:4"), repeat=5),
+        timeit(lambda: _pillow(grey, 75, "4:4:4"), repeat=5),
+    )
+    decoded = jpeg.decode(data)
+    ref = np.asarray(Image.open(io.BytesIO(data)))
+    table.add(
+        "decode 512x512 RGB q=75",
+        timeit(lambda: jpeg.decode(data), repeat=3),
+        timeit(lambda: np.asarray(Image.open(io.BytesIO(data))), repeat=5),
+        f"pixels identical: {np.array_equal(decoded, ref)}",
+    )
+
+    # byte identity over a set of images
+    same = total = 0
+    rng = np.random.default_rng(1)
+    for seed in range(8):
+        h, w = (int(v) for v in rng.integers(8, 300, 2))
+        img = _scene(h, w, seed)
+        for quality in (1, 10, 30, 50, 75, 90, 95, 100):
+            for sub in SUBSAMPLING:
+                same += jpeg.encode(img, quality=quality, subsampling=sub) == _pillow(
+                    img, quality, sub
+                )
+                total += 1
+            same += jpeg.encode(img[..., 0], quality=quality) == _pillow(
+                img[..., 0].copy(), quality
+            )
+            total += 1
+    table.add("byte identity over a test set", 0.0, None, f"{same}/{total} files identical")
+
+    # compress vs Pillow's round trip over q = 1..95
+    x = jnp.asarray(photo / 255.0)
+    fn = jax.jit(lambda x, q: jpeg.compress(x, quality=q))
+    psnrs = []
+    for quality in range(1, 96):
+        ours = np.round(np.asarray(fn(x, float(quality))) * 255)
+        theirs = np.asarray(Image.open(io.BytesIO(_pillow(photo, quality))), float)
+        mse = np.mean((ours - theirs) ** 2)
+        psnrs.append(np.inf if mse == 0 else 10 * np.log10(255**2 / mse))
+    psnrs = np.array(psnrs)
+    finite = psnrs[np.isfinite(psnrs)]
+    note = f"PSNR vs Pillow round trip, q=1..95: {np.isinf(psnrs).sum()}/95 identical (inf dB)" + (
+        f", others mean {finite.mean():.1f} dB" if finite.size else ""
+    )
+    table.add(
+        "compress 512x512 q=75 (jit) vs Pillow save+open",
+        timeit(lambda: fn(x, 75.0), repeat=5),
+        timeit(lambda: np.asarray(Image.open(io.BytesIO(_pillow(photo, 75)))), repeat=5),
+        note,
+    )
+    grad = jax.jit(jax.grad(lambda x, q: jnp.sum(jpeg.compress(x, quality=q) ** 2), (0, 1)))
+    table.add("grad of compress 512x512 (jit)", timeit(lambda: grad(x, 75.0), repeat=3))
+
+    # long fuzz run
+    sys.path.insert(0, str(Path(__file__).parents[1]))
+    from test_jpeg_fuzz import SEEDS, _mutate
+
+    rng = np.random.default_rng(99)
+    outcomes = {"decoded": 0, "JPEGError": 0}
+    start = time.perf_counter()
+    n = 20000
+    for case in range(n):
+        try:
+            jpeg.decode(_mutate(SEEDS[case % len(SEEDS)], rng))
+            outcomes["decoded"] += 1
+        except jpeg.JPEGError:
+            outcomes["JPEGError"] += 1
+    elapsed = time.perf_counter() - start
+    table.add(
+        f"fuzz decode, {n} mutated files", elapsed / n, None, f"{outcomes}, no other exception"
+    )
+    table.print()
+
+
+if __name__ == "__main__":
+    main()
