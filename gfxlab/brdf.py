@@ -249,6 +249,7 @@ def ggx_distribution(cos_h: Float[Array, "..."], alpha: Float[Array, "..."]) -> 
 
     `cos_h = n . h`; `D(h) cos_h` integrates to 1 over the hemisphere of `h`.
     """
+    cos_h, alpha = as_float(cos_h, "cos_h"), as_float(alpha, "alpha")
     a2 = alpha * alpha
     c = jnp.clip(cos_h, 0.0, 1.0)
     denom = c * c * (a2 - 1.0) + 1.0
@@ -264,6 +265,8 @@ def smith_visibility(
     + cos_i sqrt(a^2 + (1 - a^2) cos_o^2))`, finite at grazing angles; symmetric in
     `cos_i` and `cos_o`.
     """
+    cos_i, cos_o = as_float(cos_i, "cos_i"), as_float(cos_o, "cos_o")
+    alpha = as_float(alpha, "alpha")
     a2 = alpha * alpha
     ci = jnp.clip(cos_i, 0.0, 1.0)
     co = jnp.clip(cos_o, 0.0, 1.0)
@@ -276,6 +279,7 @@ def smith_visibility(
 
 def schlick_fresnel(cos_d: Float[Array, "..."], f0: Float[Array, "..."]) -> Float[Array, "..."]:
     """Schlick's Fresnel approximation `F = f0 + (1 - f0) (1 - cos_d)^5`, `cos_d = wi . h`."""
+    cos_d, f0 = as_float(cos_d, "cos_d"), as_float(f0, "f0")
     return f0 + (1.0 - f0) * (1.0 - jnp.clip(cos_d, 0.0, 1.0)) ** 5
 
 

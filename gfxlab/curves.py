@@ -566,7 +566,9 @@ def bspline(
 def _bspline_kernel(cp: jax.Array, knots: jax.Array, u: jax.Array, p: int) -> jax.Array:
     flat, shape = _flat_parameters(u)
     n = cp.shape[-2]
-    segment = _spans(knots, p, n, flat) - p
+    # Materialise the span indices once: otherwise XLA may fuse (repeat) the search into
+    # every look-up below.
+    segment = jax.lax.optimization_barrier(_spans(knots, p, n, flat) - p)
     bezier_points = _bezier_segments(cp, knots, p)  # (..., n-p, p+1, d)
     starts, ends = knots[p:n], knots[p + 1 : n + 1]
     scale = _safe_ratio(jnp.ones_like(starts), ends - starts)
@@ -965,11 +967,15 @@ class Ellipse(eqx.Module):
 
     def normalized(self) -> Ellipse:
         """The same point set with `a >= b >= 0` and `angle` in `[0, pi)`."""
-        a, b = jnp.abs(self.radii[0]), jnp.abs(self.radii[1])
-        swap = b > a
-        radii = jnp.where(swap, jnp.stack([b, a]), jnp.stack([a, b]))
-        angle = jnp.mod(self.angle + jnp.where(swap, jnp.pi / 2, 0.0), jnp.pi)
-        return Ellipse(self.center, radii, angle)
+        return Ellipse(self.center, *_normalized_axes(self.radii, self.angle))
+
+
+@jax.jit
+def _normalized_axes(radii: jax.Array, angle: jax.Array) -> tuple[jax.Array, jax.Array]:
+    a, b = jnp.abs(radii[0]), jnp.abs(radii[1])
+    swap = b > a
+    radii = jnp.where(swap, jnp.stack([b, a]), jnp.stack([a, b]))
+    return radii, jnp.mod(angle + jnp.where(swap, jnp.pi / 2, 0.0), jnp.pi)
 
 
 # ----------------------------------------------------------------------------- fitting
@@ -982,6 +988,11 @@ def chord_length_parameters(points: Float[ArrayLike, "N d"]) -> Float[Array, " N
     check_shape(points, "points", (None, None))
     if points.shape[0] < 2:
         raise ValueError(f"`points` must hold at least 2 points, got {points.shape[0]}")
+    return _chord_length_kernel(points)
+
+
+@jax.jit
+def _chord_length_kernel(points: jax.Array) -> jax.Array:
     steps = points[1:] - points[:-1]
     squared = jnp.sum(steps * steps, axis=-1)
     positive = squared > 0
@@ -992,6 +1003,7 @@ def chord_length_parameters(points: Float[ArrayLike, "N d"]) -> Float[Array, " N
     return jnp.where(total > 0, cumulative / jnp.where(total > 0, total, 1), uniform)
 
 
+@functools.partial(jax.jit, static_argnums=2)
 def _resample(points: jax.Array, parameters: jax.Array, count: int) -> jax.Array:
     """`count` points spread along the polyline through `points` at `parameters`."""
     lo, hi = parameters[0], parameters[-1]
@@ -1177,18 +1189,8 @@ def fit_ellipse(
         raise ValueError(f"`points` must hold at least 5 points to fix an ellipse, got "
                          f"{points.shape[0]}")
     if initial is None:
-        center = jnp.mean(points, axis=0)
-        offsets = points - center
-        variances, axes = jnp.linalg.eigh(offsets.T @ offsets / points.shape[0])
-        major = axes[:, 1]
-        angle = jnp.arctan2(major[1], major[0])
-        radii = jnp.sqrt(2 * jnp.maximum(variances[::-1], 1e-12))
-        initial = Ellipse(center, radii, angle)
-    c, s = jnp.cos(initial.angle), jnp.sin(initial.angle)
-    offsets = points - initial.center
-    local_x = c * offsets[:, 0] + s * offsets[:, 1]
-    local_y = -s * offsets[:, 0] + c * offsets[:, 1]
-    t = jnp.arctan2(local_y / initial.radii[1], local_x / initial.radii[0])
+        initial = Ellipse(*_principal_axes(points))
+    t = _ellipse_parameters(initial, points)
 
     def residuals(params, data):
         shape, t = params
@@ -1196,14 +1198,32 @@ def fit_ellipse(
 
     result = fit(residuals, (initial, t), args=(points,), method=method, max_steps=max_steps)
     fitted, t = result.params
-    on_curve = fitted(t)
-    fitted = fitted.normalized()
+    normalized = fitted.normalized()
     if full_output:
         # The parameters of the same points on the normalised ellipse.
-        c, s = jnp.cos(fitted.angle), jnp.sin(fitted.angle)
-        offsets = on_curve - fitted.center
-        local_x = c * offsets[:, 0] + s * offsets[:, 1]
-        local_y = -s * offsets[:, 0] + c * offsets[:, 1]
-        t = jnp.arctan2(local_y / fitted.radii[1], local_x / fitted.radii[0])
-        return fitted, t, result
-    return fitted
+        return normalized, _ellipse_parameters(normalized, fitted(t)), result
+    return normalized
+
+
+@jax.jit
+def _principal_axes(points: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
+    """Centre, semi-axes and angle of the ellipse with the points' mean and covariance
+    (points spread evenly in `t` over an ellipse have variance `a^2 / 2` along it)."""
+    center = jnp.mean(points, axis=0)
+    offsets = points - center
+    variances, axes = jnp.linalg.eigh(offsets.T @ offsets / points.shape[0])
+    major = axes[:, 1]
+    angle = jnp.arctan2(major[1], major[0])
+    radii = jnp.sqrt(2 * jnp.maximum(variances[::-1], 1e-12))
+    return center, radii, angle
+
+
+@eqx.filter_jit
+def _ellipse_parameters(shape: Ellipse, points: jax.Array) -> jax.Array:
+    """The parameter `t` of each point's direction in the ellipse's own frame (exact for
+    points on the ellipse)."""
+    c, s = jnp.cos(shape.angle), jnp.sin(shape.angle)
+    offsets = points - shape.center
+    local_x = c * offsets[:, 0] + s * offsets[:, 1]
+    local_y = -s * offsets[:, 0] + c * offsets[:, 1]
+    return jnp.arctan2(local_y / shape.radii[1], local_x / shape.radii[0])

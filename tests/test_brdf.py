@@ -238,6 +238,18 @@ def test_gradients(fn, params):
     assert all(bool(jnp.all(jnp.isfinite(g))) for g in jax.tree_util.tree_leaves(grads))
 
 
+def test_gradients_of_the_microfacet_terms():
+    kw = dict(order=1, modes=["fwd", "rev"], atol=1e-6, rtol=1e-6)
+    cos = jnp.array([0.2, 0.7, 0.95])
+    check_grads(brdf.ggx_distribution, (cos, 0.4), **kw)
+    check_grads(brdf.smith_visibility, (cos, cos[::-1], 0.4), **kw)
+    check_grads(brdf.schlick_fresnel, (cos, 0.3), **kw)
+    check_grads(brdf.reflect, (jnp.array([0.3, 0.4, 0.5]), jnp.array([0.0, 0.6, 0.8])), **kw)
+    check_grads(
+        lambda a, b, c: jnp.stack(brdf.half_diff_to_directions(a, b, c)), (0.3, 0.5, 1.0), **kw
+    )
+
+
 def test_gradients_of_albedo_and_shader():
     check_grads(
         jax.jit(
@@ -341,6 +353,9 @@ def test_shade_sphere_renders_every_model_and_a_colour_batch():
         (lambda: brdf.shade_sphere(brdf.Lambert(), (4, 4), radius=-1), "radius"),
         (lambda: brdf.reflect(UP[:2], UP), "`w` must have shape"),
         (lambda: brdf.half_diff_to_directions("x", 0.0, 0.0), "theta_h"),
+        (lambda: brdf.ggx_distribution(1j, 0.5), "cos_h"),
+        (lambda: brdf.smith_visibility(0.5, 0.5, object()), "alpha"),
+        (lambda: brdf.schlick_fresnel(0.5, 2j), "f0"),
     ],
 )
 def test_bad_input_raises_clearly(call, message):
