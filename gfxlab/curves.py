@@ -562,13 +562,23 @@ def bspline(
     return _bspline_kernel(cp, knots, u, p)
 
 
-@functools.partial(jax.jit, static_argnums=3)
 def _bspline_kernel(cp: jax.Array, knots: jax.Array, u: jax.Array, p: int) -> jax.Array:
+    # Two compiled programs, search then evaluation: on CPU, XLA compiles the pair into
+    # code several times faster than the same work as a single program.
+    segment = _segment_kernel(knots, u, p, cp.shape[-2])
+    return _bspline_from_segments(cp, knots, u, segment, p)
+
+
+@functools.partial(jax.jit, static_argnums=(2, 3))
+def _segment_kernel(knots: jax.Array, u: jax.Array, p: int, n: int) -> jax.Array:
+    """Index `s - p` of each `u`'s span among the spans `p..n-1`."""
+    return (_spans(knots, p, n, u.reshape(-1)) - p).astype(jnp.int32)
+
+
+@functools.partial(jax.jit, static_argnums=4)
+def _bspline_from_segments(cp, knots, u, segment, p: int) -> jax.Array:
     flat, shape = _flat_parameters(u)
     n = cp.shape[-2]
-    # Materialise the span indices once: otherwise XLA may fuse (repeat) the search into
-    # every look-up below.
-    segment = jax.lax.optimization_barrier(_spans(knots, p, n, flat) - p)
     bezier_points = _bezier_segments(cp, knots, p)  # (..., n-p, p+1, d)
     starts, ends = knots[p:n], knots[p + 1 : n + 1]
     scale = _safe_ratio(jnp.ones_like(starts), ends - starts)

@@ -104,8 +104,14 @@ class Answer:
     def to_markdown(self) -> str:
         """The answer as Markdown, with matrices in LaTeX."""
         q = self.question
-        lines = [f"## {q.id} — {q.title} ({q.marks} marks)", "", f"> {q.text}", "",
-                 self.summary, ""]
+        lines = [
+            f"## {q.id} — {q.title} ({q.marks} marks)",
+            "",
+            f"> {q.text}",
+            "",
+            self.summary,
+            "",
+        ]
         for i, step in enumerate(self.steps, 1):
             lines.append(f"**Step {i}. {step.title}**")
             lines.append("")
@@ -218,8 +224,10 @@ def _markdown(value) -> str:
     if arr.ndim == 1:
         return "$(" + ", ".join(_latex_number(v) for v in arr) + ")$"
     exact = _all_dyadic(arr)
-    rows = [" & ".join(_latex_number(v, fractions=exact) for v in row)
-            for row in arr.reshape(arr.shape[0], -1)]
+    rows = [
+        " & ".join(_latex_number(v, fractions=exact) for v in row)
+        for row in arr.reshape(arr.shape[0], -1)
+    ]
     return "$$\\begin{pmatrix}" + " \\\\ ".join(rows) + "\\end{pmatrix}$$"
 
 
@@ -249,27 +257,41 @@ def _q1b(q: Question, *, radius: int = 10) -> Answer:
     pixels = np.asarray(raster.midpoint_circle(radius))
     rows = tuple((int(k), int(p), (int(x), int(y))) for k, p, x, y in trace)
     steps = [
-        Step("Decision parameter", "p_k = f(x_k + 1, y_k - 1/2) = (x_k + 1)^2 + (y_k - 1/2)^2 - r^2; "
-             "plot (x_k + 1, y_k) if p_k < 0, else (x_k + 1, y_k - 1)."),
-        Step("Initial value for integer r", f"p0 = 1 - r = {1 - radius}",
-             note="5/4 - r rounded; all increments are integers."),
-        Step("Increments", "p_{k+1} = p_k + 2 x_{k+1} + 1 if p_k < 0, "
-             "else p_k + 2 x_{k+1} + 1 - 2 y_{k+1}"),
-        Step(f"First octant, r = {radius} (from (0, r) until x >= y)",
-             Table(("k", "p_k", "(x_{k+1}, y_{k+1})"), rows)),
-        Step("Other seven octants by symmetry",
-             f"(±x, ±y) and (±y, ±x): {len(pixels)} distinct pixels in all."),
+        Step(
+            "Decision parameter",
+            "p_k = f(x_k + 1, y_k - 1/2) = (x_k + 1)^2 + (y_k - 1/2)^2 - r^2; "
+            "plot (x_k + 1, y_k) if p_k < 0, else (x_k + 1, y_k - 1).",
+        ),
+        Step(
+            "Initial value for integer r",
+            f"p0 = 1 - r = {1 - radius}",
+            note="5/4 - r rounded; all increments are integers.",
+        ),
+        Step(
+            "Increments",
+            "p_{k+1} = p_k + 2 x_{k+1} + 1 if p_k < 0, else p_k + 2 x_{k+1} + 1 - 2 y_{k+1}",
+        ),
+        Step(
+            f"First octant, r = {radius} (from (0, r) until x >= y)",
+            Table(("k", "p_k", "(x_{k+1}, y_{k+1})"), rows),
+        ),
+        Step(
+            "Other seven octants by symmetry",
+            f"(±x, ±y) and (±y, ±x): {len(pixels)} distinct pixels in all.",
+        ),
     ]
     return Answer(
         q,
-        summary=(f"Midpoint circle for r = {radius}: start at (0, {radius}) with p0 = {1 - radius}, "
-                 "step x by one and use the sign of p_k to choose between y_k and y_k - 1; "
-                 "mirror the octant eight ways."),
+        summary=(
+            f"Midpoint circle for r = {radius}: start at (0, {radius}) with p0 = {1 - radius}, "
+            "step x by one and use the sign of p_k to choose between y_k and y_k - 1; "
+            "mirror the octant eight ways."
+        ),
         steps=tuple(steps),
         values={"trace": trace, "pixels": pixels, "p0": 1 - radius},
         errata=("The circle equation is printed as 'X_2+Y_2=r_2' (twice); it is x² + y² = r².",),
         see_also="Lab 01 §midpoint circle; gfxlab.raster.midpoint_circle_trace(r), "
-                 "gfxlab.raster.midpoint_circle(r).",
+        "gfxlab.raster.midpoint_circle(r).",
         figure=lambda: _figure_pixels(pixels, trace, radius),
     )
 
@@ -301,42 +323,77 @@ def _q1f(q: Question) -> Answer:
     xs, ys = (xmin - 1, (xmin + xmax) / 2, xmax + 1), (ymax + 1, (ymin + ymax) / 2, ymin - 1)
     samples = jnp.array([[x, y] for y in ys for x in xs])
     codes = np.asarray(clipping.outcode(samples, jnp.asarray(window))).reshape(3, 3)
-    region_table = Table(("", "left", "centre", "right"), tuple(
-        (name, *(format(int(c), "04b") for c in row))
-        for name, row in zip(("top", "middle", "bottom"), codes, strict=True)
-    ))
+    region_table = Table(
+        ("", "left", "centre", "right"),
+        tuple(
+            (name, *(format(int(c), "04b") for c in row))
+            for name, row in zip(("top", "middle", "bottom"), codes, strict=True)
+        ),
+    )
     steps = [
-        Step("Outcode bits (read LRBT)", "left = 1000 (x < xmin), right = 0100 (x > xmax), "
-             "bottom = 0010 (y < ymin), top = 0001 (y > ymax)"),
+        Step(
+            "Outcode bits (read LRBT)",
+            "left = 1000 (x < xmin), right = 0100 (x > xmax), "
+            "bottom = 0010 (y < ymin), top = 0001 (y > ymax)",
+        ),
         Step(f"The nine regions around the window {tuple(window.tolist())}", region_table),
-        Step("Tests", "trivially accept when code0 OR code1 == 0000; trivially reject when "
-             "code0 AND code1 != 0000; otherwise clip an outside endpoint against an edge "
-             "whose bit it has set and repeat."),
+        Step(
+            "Tests",
+            "trivially accept when code0 OR code1 == 0000; trivially reject when "
+            "code0 AND code1 != 0000; otherwise clip an outside endpoint against an edge "
+            "whose bit it has set and repeat.",
+        ),
     ]
     values = {"region_codes": codes}
     for name in ("AD", "EI"):
         segment = jnp.array([example[name[0]], example[name[1]]], float)
         trace = clipping.cohen_sutherland_trace(segment, jnp.asarray(window))
         rows = tuple(
-            (i + 1, _cell(s["p0"]), _cell(s["p1"]), format(s["code0"], "04b"),
-             format(s["code1"], "04b"), format(s["and"], "04b"), format(s["or"], "04b"),
-             s["action"], s["edge"] or "-", _cell(s["new_point"]) if s["new_point"] is not None
-             else "-")
+            (
+                i + 1,
+                _cell(s["p0"]),
+                _cell(s["p1"]),
+                format(s["code0"], "04b"),
+                format(s["code1"], "04b"),
+                format(s["and"], "04b"),
+                format(s["or"], "04b"),
+                s["action"],
+                s["edge"] or "-",
+                _cell(s["new_point"]) if s["new_point"] is not None else "-",
+            )
             for i, s in enumerate(trace)
         )
-        steps.append(Step(
-            f"Segment {name}: {name[0]}{tuple(example[name[0]])} to {name[1]}{tuple(example[name[1]])}",
-            Table(("iter", "p0", "p1", "code0", "code1", "AND", "OR", "action", "edge", "new point"),
-                  rows),
-        ))
+        steps.append(
+            Step(
+                f"Segment {name}: {name[0]}{tuple(example[name[0]])} to "
+                f"{name[1]}{tuple(example[name[1]])}",
+                Table(
+                    (
+                        "iter",
+                        "p0",
+                        "p1",
+                        "code0",
+                        "code1",
+                        "AND",
+                        "OR",
+                        "action",
+                        "edge",
+                        "new point",
+                    ),
+                    rows,
+                ),
+            )
+        )
         values[name] = trace
     return Answer(
         q,
-        summary=("Each endpoint gets a 4-bit region code. OR = 0000 accepts the segment at once, "
-                 "AND != 0000 rejects it at once (both ends beyond the same edge); otherwise an "
-                 "outside endpoint is moved to the window edge named by one of its set bits and "
-                 "the tests repeat. On the seed's picture AD is clipped once (at the top edge) "
-                 "and EI three times."),
+        summary=(
+            "Each endpoint gets a 4-bit region code. OR = 0000 accepts the segment at once, "
+            "AND != 0000 rejects it at once (both ends beyond the same edge); otherwise an "
+            "outside endpoint is moved to the window edge named by one of its set bits and "
+            "the tests repeat. On the seed's picture AD is clipped once (at the top edge) "
+            "and EI three times."
+        ),
         steps=tuple(steps),
         values=values,
         errata=(
@@ -352,7 +409,7 @@ def _q1f(q: Question) -> Answer:
             "window, I = 0101 above and right of it, and H = 0100.",
         ),
         see_also="Lab 02 §walkthrough; gfxlab.clipping.outcode, "
-                 "gfxlab.clipping.cohen_sutherland_trace, gfxlab.clipping.cohen_sutherland.",
+        "gfxlab.clipping.cohen_sutherland_trace, gfxlab.clipping.cohen_sutherland.",
         figure=lambda: _figure_clip(example, window, values),
     )
 
@@ -391,22 +448,32 @@ def _q2a(q: Question, *, window=(1.0, 1.0, 5.0, 4.0), viewport=(0.0, 0.0, 320.0,
     corners = np.asarray(tf.apply(jnp.asarray(m), jnp.array([[w[0], w[1]], [w[2], w[3]]])))
     steps = (
         Step("1. translate the window corner to the origin", "T(-xw_min, -yw_min)"),
-        Step("2. scale to the viewport size",
-             "S(sx, sy), sx = (xv_max - xv_min)/(xw_max - xw_min), sy = (yv_max - yv_min)/(yw_max - yw_min)"),
+        Step(
+            "2. scale to the viewport size",
+            "S(sx, sy), sx = (xv_max - xv_min)/(xw_max - xw_min), "
+            "sy = (yv_max - yv_min)/(yw_max - yw_min)",
+        ),
         Step("3. translate to the viewport corner", "T(xv_min, yv_min)"),
-        Step("Combined (column vectors, p' = W p)",
-             "[ sx  0   xv_min - sx·xw_min ]\n[ 0   sy  yv_min - sy·yw_min ]\n[ 0   0   1                  ]",
-             note="The key writes the transpose for row vectors (p' = p·W), translation in the "
-                  "bottom row."),
-        Step(f"Numeric instance: window {tuple(w.tolist())}, viewport {tuple(v.tolist())}",
-             m, note=f"sx = {_number(sx)}, sy = {_number(sy)}"),
+        Step(
+            "Combined (column vectors, p' = W p)",
+            "[ sx  0   xv_min - sx·xw_min ]\n"
+            "[ 0   sy  yv_min - sy·yw_min ]\n"
+            "[ 0   0   1                  ]",
+            note="The key writes the transpose for row vectors (p' = p·W), translation in the "
+            "bottom row.",
+        ),
+        Step(
+            f"Numeric instance: window {tuple(w.tolist())}, viewport {tuple(v.tolist())}",
+            m,
+            note=f"sx = {_number(sx)}, sy = {_number(sy)}",
+        ),
         Step("Check: the window corners land on the viewport corners", corners),
     )
     return Answer(
         q,
         summary="W = T(xv_min, yv_min) · S(sx, sy) · T(-xw_min, -yw_min): move the window's "
-                "lower-left corner to the origin, scale it to the viewport's size, move it to the "
-                "viewport's corner.",
+        "lower-left corner to the origin, scale it to the viewport's size, move it to the "
+        "viewport's corner.",
         steps=steps,
         values={"matrix": m, "sx": sx, "sy": sy},
         errata=(
@@ -417,7 +484,7 @@ def _q2a(q: Question, *, window=(1.0, 1.0, 5.0, 4.0), viewport=(0.0, 0.0, 320.0,
             "are typesetting errors.",
         ),
         see_also="Lab 03 §2 and §9 (fitting a window mapping); "
-                 "gfxlab.transforms.window_to_viewport(window, viewport).",
+        "gfxlab.transforms.window_to_viewport(window, viewport).",
     )
 
 
@@ -434,9 +501,13 @@ def _q2b(q: Question) -> Answer:
     m = np.asarray(tf.compose(t, r)).round(15) + 0.0
     column = np.asarray(tf.apply(jnp.asarray(m), jnp.asarray(_UNIT_SQUARE))).round(15) + 0.0
     row = (np.c_[_UNIT_SQUARE, np.ones(4)] @ m.T)[:, :2]
-    table = Table(("vertex", "P", "P' (column: M·P)", "P' (row: P·T)"), tuple(
-        (n + "'", p, c, rr) for n, p, c, rr in zip("ABCD", _UNIT_SQUARE, column, row, strict=True)
-    ))
+    table = Table(
+        ("vertex", "P", "P' (column: M·P)", "P' (row: P·T)"),
+        tuple(
+            (n + "'", p, c, rr)
+            for n, p, c, rr in zip("ABCD", _UNIT_SQUARE, column, row, strict=True)
+        ),
+    )
     steps = (
         Step("Translation T_T(1, 1), column form", np.asarray(t)),
         Step("Rotation R(90°), column form", np.asarray(r).round(15) + 0.0),
@@ -449,10 +520,12 @@ def _q2b(q: Question) -> Answer:
         summary="A'(-1/2, 1/2), B'(-1/2, 3/2), C'(-3/2, 3/2), D'(-3/2, 1/2).",
         steps=steps,
         values={"matrix": m, "vertices": column},
-        errata=("B' is printed as (-3/2, 3/2), the same as C'. It is (-1/2, 3/2): B = (1/2, -1/2) "
-                "translates to (3/2, 1/2), and a quarter turn maps (x, y) to (-y, x).",),
+        errata=(
+            "B' is printed as (-3/2, 3/2), the same as C'. It is (-1/2, 3/2): B = (1/2, -1/2) "
+            "translates to (3/2, 1/2), and a quarter turn maps (x, y) to (-y, x).",
+        ),
         see_also="Lab 03 §3; gfxlab.transforms.compose(translate((1, 1)), rotate(pi/2)), "
-                 "gfxlab.transforms.apply.",
+        "gfxlab.transforms.apply.",
         figure=lambda: _figure_square(column),
     )
 
@@ -479,34 +552,51 @@ def _q2c(q: Question, *, factors=(2.0, 3.0), center=(4.0, -1.0)) -> Answer:
     from gfxlab import transforms as tf
 
     s, f = np.asarray(factors, float), np.asarray(center, float)
-    composed = np.asarray(tf.compose(tf.translate(jnp.asarray(-f)), tf.scale(jnp.asarray(s)),
-                                     tf.translate(jnp.asarray(f))))
+    composed = np.asarray(
+        tf.compose(
+            tf.translate(jnp.asarray(-f)), tf.scale(jnp.asarray(s)), tf.translate(jnp.asarray(f))
+        )
+    )
     closed = np.array([[s[0], 0, f[0] * (1 - s[0])], [0, s[1], f[1] * (1 - s[1])], [0, 0, 1]])
     steps = (
-        Step("Sequence", "T(xf, yf) · S(sx, sy) · T(-xf, -yf): move the fixed point to the origin, "
-             "scale, move it back."),
+        Step(
+            "Sequence",
+            "T(xf, yf) · S(sx, sy) · T(-xf, -yf): move the fixed point to the origin, "
+            "scale, move it back.",
+        ),
         Step("Product", "[ sx  0   xf(1 - sx) ]\n[ 0   sy  yf(1 - sy) ]\n[ 0   0   1          ]"),
-        Step(f"Numeric check, s = {tuple(s.tolist())}, fixed point = {tuple(f.tolist())}: "
-             "gfxlab's composition", composed),
-        Step("Closed form with the same numbers", closed,
-             note=f"max |difference| = {_number(np.max(np.abs(composed - closed)))}"),
-        Step("The fixed point does not move",
-             np.asarray(tf.apply(jnp.asarray(composed), jnp.asarray(f)))),
+        Step(
+            f"Numeric check, s = {tuple(s.tolist())}, fixed point = {tuple(f.tolist())}: "
+            "gfxlab's composition",
+            composed,
+        ),
+        Step(
+            "Closed form with the same numbers",
+            closed,
+            note=f"max |difference| = {_number(np.max(np.abs(composed - closed)))}",
+        ),
+        Step(
+            "The fixed point does not move",
+            np.asarray(tf.apply(jnp.asarray(composed), jnp.asarray(f))),
+        ),
     )
     return Answer(
         q,
         summary="S(xf, yf, sx, sy) = [[sx, 0, xf(1 - sx)], [0, sy, yf(1 - sy)], [0, 0, 1]].",
         steps=steps,
         values={"composed": composed, "closed_form": closed},
-        errata=("Not an error in this answer, but the key switches conventions: Q2c uses column "
-                "vectors (translation in the last column) while Q2a and Q2b use row vectors.",),
+        errata=(
+            "Not an error in this answer, but the key switches conventions: Q2c uses column "
+            "vectors (translation in the last column) while Q2a and Q2b use row vectors.",
+        ),
         see_also="Lab 03 §4; gfxlab.transforms.scale(factors, center=fixed_point).",
     )
 
 
 _CUBE_NAMES = "ABCDEFGH"
-_CUBE = np.array([[0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1],
-                  [0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+_CUBE = np.array(
+    [[0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1], [0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float
+)
 _SEED_SHEAR = np.array([[1, 1.5, 3, 0], [0.8, 0, 1, 0], [0.5, 1, 1, 0], [0, 0, 0, 1]])
 
 
@@ -519,20 +609,23 @@ def _q2f(q: Question) -> Answer:
     m = np.asarray(tf.linear(jnp.asarray(_SEED_SHEAR[:3, :3].T)))
     moved = np.asarray(tf.apply(jnp.asarray(m), jnp.asarray(_CUBE)))
     row_form = np.c_[_CUBE, np.ones(8)] @ _SEED_SHEAR
-    table = Table(("vertex", "V", "V' = V·T_shear"), tuple(
-        (n, v, w) for n, v, w in zip(_CUBE_NAMES, _CUBE, moved, strict=True)
-    ))
+    table = Table(
+        ("vertex", "V", "V' = V·T_shear"),
+        tuple((n, v, w) for n, v, w in zip(_CUBE_NAMES, _CUBE, moved, strict=True)),
+    )
     steps = (
         Step("The key's matrix (row vectors)", _SEED_SHEAR),
         Step("In column form M = T_shearᵀ", m),
-        Step("Homogeneous vertex matrix V (rows A..H, with G = (1, 1, 0))", np.c_[_CUBE, np.ones(8)]),
+        Step(
+            "Homogeneous vertex matrix V (rows A..H, with G = (1, 1, 0))", np.c_[_CUBE, np.ones(8)]
+        ),
         Step("V' = V · T_shear", row_form),
         Step("Transformed vertices", table),
     )
     return Answer(
         q,
         summary="A'(0.5, 1, 1), B'(1.5, 2.5, 4), C'(2.3, 2.5, 5), D'(1.3, 1, 2), E'(0, 0, 0), "
-                "F'(1, 1.5, 3), G'(1.8, 1.5, 4), H'(0.8, 0, 1).",
+        "F'(1, 1.5, 3), G'(1.8, 1.5, 4), H'(0.8, 0, 1).",
         steps=steps,
         values={"vertices": moved},
         errata=(
@@ -552,8 +645,20 @@ def _q2f(q: Question) -> Answer:
 def _figure_cube(moved):
     import matplotlib.pyplot as plt
 
-    edges = [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4),
-             (0, 4), (1, 5), (2, 6), (3, 7)]
+    edges = [
+        (0, 1),
+        (1, 2),
+        (2, 3),
+        (3, 0),
+        (4, 5),
+        (5, 6),
+        (6, 7),
+        (7, 4),
+        (0, 4),
+        (1, 5),
+        (2, 6),
+        (3, 7),
+    ]
     fig = plt.figure(figsize=(9, 4))
     for i, (title, pts) in enumerate((("unit cube", _CUBE), ("after T_shear", moved))):
         ax = fig.add_subplot(1, 2, i + 1, projection="3d")
@@ -582,45 +687,60 @@ def _q3d(q: Question) -> Answer:
         ("1 W laser at 555 nm", color.line_spectrum(wl, 555.0, 1.0), None),
         ("1 W laser at 650 nm (red)", color.line_spectrum(wl, 650.0, 1.0), None),
         ("equal-energy spectrum, 360-830 nm", jnp.full(wl.shape, 1.0), None),
-        ("blackbody 2856 K (CIE illuminant A), all wavelengths", color.planck(wl, 2856.0),
-         color.planck_total_radiance(2856.0)),
-        ("blackbody 6500 K, all wavelengths", color.planck(wl, 6500.0),
-         color.planck_total_radiance(6500.0)),
+        (
+            "blackbody 2856 K (CIE illuminant A), all wavelengths",
+            color.planck(wl, 2856.0),
+            color.planck_total_radiance(2856.0),
+        ),
+        (
+            "blackbody 6500 K, all wavelengths",
+            color.planck(wl, 6500.0),
+            color.planck_total_radiance(6500.0),
+        ),
     ):
         flux = float(color.luminous_flux(wl, spd))
         efficacy = float(color.luminous_efficacy(wl, spd, radiant_power=power))
         sources.append((name, f"{flux:.4g}", f"{efficacy:.4g}"))
     # A screen-like white: three narrow-ish primaries, 1 W/(sr m^2) in total.
     screen = sum(
-        a * jnp.exp(-0.5 * ((wl - c) / 12.0) ** 2) for a, c in ((0.35, 610.0), (0.3, 545.0),
-                                                               (0.35, 455.0))
+        a * jnp.exp(-0.5 * ((wl - c) / 12.0) ** 2)
+        for a, c in ((0.35, 610.0), (0.3, 545.0), (0.35, 455.0))
     )
     screen = screen / jnp.trapezoid(screen, wl)
     screen_luminance = float(color.luminance(wl, screen))
     steps = (
-        Step("Photometric quantity", "f_p = 683 lm/W · ∫ V(λ) f_r(λ) dλ (V = ȳ, the CIE 1924 "
-             "photopic luminous efficiency function)"),
+        Step(
+            "Photometric quantity",
+            "f_p = 683 lm/W · ∫ V(λ) f_r(λ) dλ (V = ȳ, the CIE 1924 "
+            "photopic luminous efficiency function)",
+        ),
         Step("Peak of V(λ)", f"{peak:g} nm, V = {v.max():.4g}"),
-        Step("Luminous flux and efficacy of example sources (1 W of radiant power each, "
-             "spectrum normalised on the CIE grid)",
-             Table(("source", "flux (lm per W)", "efficacy (lm/W)"), tuple(sources))),
-        Step("Luminance of a screen-like white spectrum of radiance 1 W/(sr·m²)",
-             f"{screen_luminance:.4g} cd/m² (lm per sr per m²)"),
+        Step(
+            "Luminous flux and efficacy of example sources (1 W of radiant power each, "
+            "spectrum normalised on the CIE grid)",
+            Table(("source", "flux (lm per W)", "efficacy (lm/W)"), tuple(sources)),
+        ),
+        Step(
+            "Luminance of a screen-like white spectrum of radiance 1 W/(sr·m²)",
+            f"{screen_luminance:.4g} cd/m² (lm per sr per m²)",
+        ),
     )
     return Answer(
         q,
         summary="Photometry weights a radiometric quantity by the eye's sensitivity V(λ) and the "
-                "constant 683 lm/W: radiant flux becomes luminous flux (lm), radiance becomes "
-                "luminance (cd/m²). Light at 555 nm gives the maximum 683 lm/W; an incandescent "
-                "lamp gives about 16 lm/W because most of its power is infrared.",
+        "constant 683 lm/W: radiant flux becomes luminous flux (lm), radiance becomes "
+        "luminance (cd/m²). Light at 555 nm gives the maximum 683 lm/W; an incandescent "
+        "lamp gives about 16 lm/W because most of its power is infrared.",
         steps=steps,
         values={"peak_nm": peak, "sources": sources, "screen_luminance": screen_luminance},
-        errata=("The key integrates from 380 to 800 nm and says ȳ is zero outside; the CIE tables "
-                "run from 360 to 830 nm and V is small but not zero there (V(800 nm) ≈ "
-                f"{float(np.interp(800.0, np.asarray(wl), v)):.1e}), so the limits change the "
-                "result slightly.",),
+        errata=(
+            "The key integrates from 380 to 800 nm and says ȳ is zero outside; the CIE tables "
+            "run from 360 to 830 nm and V is small but not zero there (V(800 nm) ≈ "
+            f"{float(np.interp(800.0, np.asarray(wl), v)):.1e}), so the limits change the "
+            "result slightly.",
+        ),
         see_also="Lab 04 §photometry; gfxlab.color.luminous_flux, luminous_efficacy, luminance, "
-                 "planck, line_spectrum.",
+        "planck, line_spectrum.",
         figure=lambda: _figure_v(np.asarray(wl), v),
     )
 
@@ -651,29 +771,36 @@ def _q3e(q: Question) -> Answer:
     alpha = jax.random.uniform(key_c, (1000, 1), minval=0.1, maxval=10.0)
     xyz = lambda s: color.spectrum_to_xyz(wl, s)  # noqa: E731
     additivity = float(jnp.max(jnp.abs(xyz(a + c) - xyz(a) - xyz(c)) / jnp.abs(xyz(a + c))))
-    proportionality = float(jnp.max(jnp.abs(xyz(alpha * a) - alpha * xyz(a)) / jnp.abs(xyz(alpha * a))))
+    proportionality = float(
+        jnp.max(jnp.abs(xyz(alpha * a) - alpha * xyz(a)) / jnp.abs(xyz(alpha * a)))
+    )
     steps = (
         Step("Symmetry", "A ~ B implies B ~ A."),
         Step("Transitivity", "A ~ B and B ~ C imply A ~ C."),
         Step("Proportionality", "A ~ B implies αA ~ αB for α > 0."),
         Step("Additivity", "A ~ B and C ~ D imply A + C ~ B + D."),
-        Step("Why they hold: a match means equal tristimulus values, and XYZ = ∫ spectrum · CMF "
-             "is linear. Checked on 1000 random spectra",
-             f"max relative error, additivity {additivity:.1e}; proportionality {proportionality:.1e}"),
+        Step(
+            "Why they hold: a match means equal tristimulus values, and XYZ = ∫ spectrum · CMF "
+            "is linear. Checked on 1000 random spectra",
+            f"max relative error, additivity {additivity:.1e}; "
+            f"proportionality {proportionality:.1e}",
+        ),
     )
     return Answer(
         q,
         summary="Colour matches obey the rules of linear algebra (Grassmann 1853): matching is an "
-                "equivalence (symmetric, transitive) that survives scaling and adding. That is why "
-                "three numbers (XYZ, or RGB) suffice to describe a colour.",
+        "equivalence (symmetric, transitive) that survives scaling and adding. That is why "
+        "three numbers (XYZ, or RGB) suffice to describe a colour.",
         steps=steps,
         values={"additivity": additivity, "proportionality": proportionality},
-        errata=("The additivity law is stated as 'if A matches B, C matches D, and A + C matches "
-                "B + D, then A + D matches B + C': the middle premise is redundant (it follows "
-                "from the first two), and the usual statement is simply 'A ~ B and C ~ D imply "
-                "A + C ~ B + D'.",),
+        errata=(
+            "The additivity law is stated as 'if A matches B, C matches D, and A + C matches "
+            "B + D, then A + D matches B + C': the middle premise is redundant (it follows "
+            "from the first two), and the usual statement is simply 'A ~ B and C ~ D imply "
+            "A + C ~ B + D'.",
+        ),
         see_also="Lab 04 §Grassmann's laws; gfxlab.color.spectrum_to_xyz, "
-                 "gfxlab.color.make_metamer.",
+        "gfxlab.color.make_metamer.",
     )
 
 
@@ -690,22 +817,31 @@ def _q4c(q: Question, *, center=(1.0, 1.0), radii=(3.0, 2.0), angle=0.0) -> Answ
     pts = np.asarray(curves.ellipse(jnp.asarray(center), jnp.asarray(radii), angle, jnp.asarray(t)))
     names = ("0", "π/4", "π/2", "π", "3π/2")
     steps = (
-        Step("Parametric form", "x = h + a cos t, y = k + b sin t, 0 <= t < 2π; rotating by θ "
-             "adds the rotation matrix: (x, y) = (h, k) + R(θ) (a cos t, b sin t)."),
-        Step(f"Example: centre (h, k) = {tuple(center)}, a = {radii[0]:g}, b = {radii[1]:g}",
-             Table(("t", "x", "y"), tuple((n, f"{p[0]:.6g}", f"{p[1]:.6g}")
-                                          for n, p in zip(names, pts, strict=True)))),
-        Step("Check: every point satisfies ((x-h)/a)² + ((y-k)/b)² = 1",
-             f"max deviation {np.max(np.abs(((pts[:, 0] - center[0]) / radii[0]) ** 2 + ((pts[:, 1] - center[1]) / radii[1]) ** 2 - 1)):.1e}"),
+        Step(
+            "Parametric form",
+            "x = h + a cos t, y = k + b sin t, 0 <= t < 2π; rotating by θ "
+            "adds the rotation matrix: (x, y) = (h, k) + R(θ) (a cos t, b sin t).",
+        ),
+        Step(
+            f"Example: centre (h, k) = {tuple(center)}, a = {radii[0]:g}, b = {radii[1]:g}",
+            Table(
+                ("t", "x", "y"),
+                tuple((n, f"{p[0]:.6g}", f"{p[1]:.6g}") for n, p in zip(names, pts, strict=True)),
+            ),
+        ),
+        Step(
+            "Check: every point satisfies ((x-h)/a)² + ((y-k)/b)² = 1",
+            f"max deviation {np.max(np.abs(np.sum(((pts - center) / radii) ** 2, 1) - 1)):.1e}",
+        ),
     )
     return Answer(
         q,
         summary="An ellipse is traced by x = h + a cos t, y = k + b sin t; equal steps in t give "
-                "points denser near the ends of the major axis. a = b gives a circle.",
+        "points denser near the ends of the major axis. a = b gives a circle.",
         steps=steps,
         values={"points": pts},
         see_also="Lab 06 §parametric ellipse; gfxlab.curves.ellipse(center, radii, angle, t), "
-                 "gfxlab.curves.Ellipse (fitted to noisy points in the lab).",
+        "gfxlab.curves.Ellipse (fitted to noisy points in the lab).",
     )
 
 
@@ -721,10 +857,13 @@ def _q4f(q: Question) -> Answer:
     u = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
     weights = np.asarray(curves.bernstein(3, jnp.asarray(u)))
     points = np.asarray(curves.bezier(jnp.asarray(_SEED_BEZIER), jnp.asarray(u)))
-    table = Table(("u", "(1-u)³", "3u(1-u)²", "3u²(1-u)", "u³", "P(u)", "decimal"), tuple(
-        (_number(ui), *(_number(w) for w in wi), _cell(p), f"({p[0]:g}, {p[1]:g})")
-        for ui, wi, p in zip(u, weights, points, strict=True)
-    ))
+    table = Table(
+        ("u", "(1-u)³", "3u(1-u)²", "3u²(1-u)", "u³", "P(u)", "decimal"),
+        tuple(
+            (_number(ui), *(_number(w) for w in wi), _cell(p), f"({p[0]:g}, {p[1]:g})")
+            for ui, wi, p in zip(u, weights, points, strict=True)
+        ),
+    )
     steps = (
         Step("Cubic Bezier", "P(u) = (1-u)³ A + 3u(1-u)² B + 3u²(1-u) C + u³ D"),
         Step("Control points", _SEED_BEZIER),
@@ -733,14 +872,16 @@ def _q4f(q: Question) -> Answer:
     return Answer(
         q,
         summary="P(0) = (1, 1), P(1/4) = (123/64, 139/64), P(1/2) = (25/8, 23/8), "
-                "P(3/4) = (289/64, 217/64), P(1) = (6, 4).",
+        "P(3/4) = (289/64, 217/64), P(1) = (6, 4).",
         steps=steps,
         values={"points": points, "weights": weights},
-        errata=("The question says 'order 3' for four control points; that curve has degree 3, "
-                "i.e. order 4 in the B-spline sense (order = degree + 1).",
-                "The key stops after writing the formula; the points are computed above."),
+        errata=(
+            "The question says 'order 3' for four control points; that curve has degree 3, "
+            "i.e. order 4 in the B-spline sense (order = degree + 1).",
+            "The key stops after writing the formula; the points are computed above.",
+        ),
         see_also="Lab 06 §the seed's Bezier question; gfxlab.curves.bezier(control_points, u), "
-                 "gfxlab.curves.de_casteljau.",
+        "gfxlab.curves.de_casteljau.",
         figure=lambda: _figure_bezier(points),
     )
 
@@ -774,53 +915,70 @@ def _q5c(q: Question) -> Answer:
     from gfxlab import image
 
     full = float(np.asarray(image.median_filter(jnp.asarray(_SEED_MEDIAN), size=3))[1, 1])
-    cross = float(np.asarray(image.median_filter(jnp.asarray(_SEED_MEDIAN),
-                                                 footprint=image.cross_footprint(1)))[1, 1])
+    cross = float(
+        np.asarray(
+            image.median_filter(jnp.asarray(_SEED_MEDIAN), footprint=image.cross_footprint(1))
+        )[1, 1]
+    )
     even = np.array([55.0, 68.0, 77.0, 91.0])
     even_median = float(image.median(jnp.asarray(even)))
     x, y = np.array([1.0, 5.0, 2.0]), np.array([4.0, 0.0, 3.0])
     mx, my, mxy = (float(image.median(jnp.asarray(s))) for s in (x, y, x + y))
     steps = (
-        Step("3×3 window, sorted", f"{sorted(_SEED_MEDIAN.ravel().astype(int).tolist())} -> "
-             f"median (5th of 9) = {_number(full)}"),
-        Step("5-pixel cross (centre and its 4 neighbours), sorted",
-             f"{sorted([55, 77, 68, 95, 151])} -> median (3rd of 5) = {_number(cross)}"),
-        Step("Even window (2K values): mean of the K-th and (K+1)-th",
-             f"{even.astype(int).tolist()} -> ({_number(even[1])} + {_number(even[2])})/2 = "
-             f"{_number(even_median)}"),
-        Step("Non-linear: median{x + y} != median{x} + median{y}",
-             f"x = {x.astype(int).tolist()}, y = {y.astype(int).tolist()}: median(x + y) = "
-             f"{_number(mxy)} but median(x) + median(y) = {_number(mx)} + {_number(my)} = "
-             f"{_number(mx + my)}"),
+        Step(
+            "3×3 window, sorted",
+            f"{sorted(_SEED_MEDIAN.ravel().astype(int).tolist())} -> "
+            f"median (5th of 9) = {_number(full)}",
+        ),
+        Step(
+            "5-pixel cross (centre and its 4 neighbours), sorted",
+            f"{sorted([55, 77, 68, 95, 151])} -> median (3rd of 5) = {_number(cross)}",
+        ),
+        Step(
+            "Even window (2K values): mean of the K-th and (K+1)-th",
+            f"{even.astype(int).tolist()} -> ({_number(even[1])} + {_number(even[2])})/2 = "
+            f"{_number(even_median)}",
+        ),
+        Step(
+            "Non-linear: median{x + y} != median{x} + median{y}",
+            f"x = {x.astype(int).tolist()}, y = {y.astype(int).tolist()}: median(x + y) = "
+            f"{_number(mxy)} but median(x) + median(y) = {_number(mx)} + {_number(my)} = "
+            f"{_number(mx + my)}",
+        ),
     )
     return Answer(
         q,
         summary="A median filter replaces each pixel by the median of its neighbourhood: it "
-                "removes impulse (salt-and-pepper) noise while keeping edges, and it is "
-                "non-linear. The seed's 3×3 block gives 91; the cross gives 77.",
+        "removes impulse (salt-and-pepper) noise while keeping edges, and it is "
+        "non-linear. The seed's 3×3 block gives 91; the cross gives 77.",
         steps=steps,
         values={"full": full, "cross": cross, "even": even_median},
-        errata=("The even-window formula is printed with its denominator garbled "
-                "('(K+1)th classified value' under the fraction bar): the output is "
-                "(K-th value + (K+1)-th value) / 2.",
-                "The key says 'sort the original image values on the 3×3 cross window' for the "
-                "5-pixel cross: the cross has 5 values, not 9."),
+        errata=(
+            "The even-window formula is printed with its denominator garbled "
+            "('(K+1)th classified value' under the fraction bar): the output is "
+            "(K-th value + (K+1)-th value) / 2.",
+            "The key says 'sort the original image values on the 3×3 cross window' for the "
+            "5-pixel cross: the cross has 5 values, not 9.",
+        ),
         see_also="Lab 07 §median filtering; gfxlab.image.median_filter(image, size=3), "
-                 "footprint=gfxlab.image.cross_footprint(1).",
+        "footprint=gfxlab.image.cross_footprint(1).",
     )
 
 
 # The seed's block after the level shift (pixel - 128).
-_SEED_JPEG_BLOCK = np.array([
-    [-76, -73, -67, -62, -58, -67, -64, -55],
-    [-65, -69, -73, -38, -19, -43, -59, -56],
-    [-66, -69, -60, -15, 16, -24, -62, -55],
-    [-65, -70, -57, -6, 26, -22, -58, -59],
-    [-61, -67, -60, -24, -2, -40, -60, -58],
-    [-49, -63, -68, -58, -51, -60, -70, -53],
-    [-43, -57, -64, -69, -73, -67, -63, -45],
-    [-41, -49, -59, -60, -63, -52, -50, -34],
-], float)
+_SEED_JPEG_BLOCK = np.array(
+    [
+        [-76, -73, -67, -62, -58, -67, -64, -55],
+        [-65, -69, -73, -38, -19, -43, -59, -56],
+        [-66, -69, -60, -15, 16, -24, -62, -55],
+        [-65, -70, -57, -6, 26, -22, -58, -59],
+        [-61, -67, -60, -24, -2, -40, -60, -58],
+        [-49, -63, -68, -58, -51, -60, -70, -53],
+        [-43, -57, -64, -69, -73, -67, -63, -45],
+        [-41, -49, -59, -60, -63, -52, -50, -34],
+    ],
+    float,
+)
 
 
 def _q5f(q: Question) -> Answer:
@@ -837,20 +995,25 @@ def _q5f(q: Question) -> Answer:
     kept = sequence[: last + 1].tolist()
     steps = (
         Step("8×8 block after the level shift (pixel - 128)", _SEED_JPEG_BLOCK),
-        Step("DCT-II, G(u,v) = α(u)α(v) Σ g(x,y) cos[(2x+1)uπ/16] cos[(2y+1)vπ/16] (rounded to 2 "
-             "decimals)", coefficients.round(2)),
+        Step(
+            "DCT-II, G(u,v) = α(u)α(v) Σ g(x,y) cos[(2x+1)uπ/16] cos[(2y+1)vπ/16] (rounded to 2 "
+            "decimals)",
+            coefficients.round(2),
+        ),
         Step("Luminance quantization table (ITU-T T.81 Annex K, all eight rows)", table),
         Step("Quantized B(j,k) = round(G(j,k) / Q(j,k))", quantized),
-        Step("Zig-zag sequence up to the last non-zero coefficient, then EOB",
-             ", ".join(str(v) for v in kept) + ", EOB",
-             note=f"{last + 1} of 64 coefficients kept; the remaining {63 - last} zeros are "
-                  "replaced by a single end-of-block code."),
+        Step(
+            "Zig-zag sequence up to the last non-zero coefficient, then EOB",
+            ", ".join(str(v) for v in kept) + ", EOB",
+            note=f"{last + 1} of 64 coefficients kept; the remaining {63 - last} zeros are "
+            "replaced by a single end-of-block code.",
+        ),
     )
     return Answer(
         q,
         summary=f"The DC coefficient is {coefficients[0, 0]:.2f}, quantized to {quantized[0, 0]}; "
-                f"the zig-zag scan is {', '.join(str(v) for v in kept[:10])}, ... ending with EOB "
-                f"after {last + 1} coefficients.",
+        f"the zig-zag scan is {', '.join(str(v) for v in kept[:10])}, ... ending with EOB "
+        f"after {last + 1} coefficients.",
         steps=steps,
         values={"dct": coefficients, "quantized": quantized, "zigzag": np.asarray(kept)},
         errata=(
@@ -863,7 +1026,7 @@ def _q5f(q: Question) -> Answer:
             "The original 8×8 pixel values are not shown, only the block after subtracting 128.",
         ),
         see_also="Lab 07 §JPEG step by step; gfxlab.jpeg.dct2, gfxlab.jpeg.quant_tables, "
-                 "gfxlab.jpeg.quantize, gfxlab.jpeg.zigzag, gfxlab.jpeg.encode.",
+        "gfxlab.jpeg.quantize, gfxlab.jpeg.zigzag, gfxlab.jpeg.encode.",
         figure=lambda: _figure_jpeg(coefficients, quantized),
     )
 
@@ -872,9 +1035,11 @@ def _figure_jpeg(coefficients, quantized):
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 3, figsize=(11, 3.5))
-    for ax, data, title in ((axes[0], _SEED_JPEG_BLOCK, "level-shifted block"),
-                            (axes[1], coefficients, "DCT coefficients"),
-                            (axes[2], quantized, "quantized")):
+    for ax, data, title in (
+        (axes[0], _SEED_JPEG_BLOCK, "level-shifted block"),
+        (axes[1], coefficients, "DCT coefficients"),
+        (axes[2], quantized, "quantized"),
+    ):
         im = ax.imshow(data, cmap="RdBu_r")
         ax.set_title(title)
         fig.colorbar(im, ax=ax, shrink=0.8)
@@ -944,11 +1109,13 @@ _DESCRIPTIVE = {
         "at infinity (a direction) a parallel projection.",
         "Lab 03 §6 (a grid under an affine and a projective map); "
         "gfxlab.transforms.apply (with the perspective divide), gfxlab.viewing.perspective.",
-        ("'Affine geometry is identical to Euclidean geometry' is not right: affine geometry "
-         "keeps parallelism and ratios along lines but not distances or angles, which Euclidean "
-         "geometry keeps.",
-         "'It forms a subset of bilinear transformations' should read 'of projective (linear "
-         "fractional) transformations'.",),
+        (
+            "'Affine geometry is identical to Euclidean geometry' is not right: affine geometry "
+            "keeps parallelism and ratios along lines but not distances or angles, which Euclidean "
+            "geometry keeps.",
+            "'It forms a subset of bilinear transformations' should read 'of projective (linear "
+            "fractional) transformations'.",
+        ),
     ),
     "Q2e": (
         "A projection maps 3D points to a 2D view plane along projectors. In an orthographic "
@@ -1008,10 +1175,13 @@ _DESCRIPTIVE = {
         "transparency without sorting.",
         "Lab 05 §z-buffer step by step; gfxlab.render.zbuffer (returns the image, the depth "
         "buffer and counters).",
-        ("The key names the inventor 'Cutmull'; it is Catmull.",
-         "It says the closest surface has the smallest z, then initialises the depth buffer to 0 "
-         "and keeps z > depthbuffer(x, y) with 1 = front plane: the test is right only with "
-         "its second convention (larger = nearer)."),
+        (
+            "The key names the inventor 'Cutmull'; it is Catmull.",
+            "It says the closest surface has the smallest z, then initialises the depth buffer "
+            "to 0 "
+            "and keeps z > depthbuffer(x, y) with 1 = front plane: the test is right only with "
+            "its second convention (larger = nearer).",
+        ),
     ),
     "Q4b": (
         "Warnock's algorithm subdivides the screen: for an area, each polygon is surrounding "
@@ -1022,9 +1192,11 @@ _DESCRIPTIVE = {
         "front of all others at the area's corners (fill with it). Otherwise split the area into "
         "four and recurse, down to pixel size, where the nearest polygon wins.",
         "Lab 05 §Warnock (quadtree drawn over the image); gfxlab.render.warnock.",
-        ("'Surrounding polygons are completely inside the area of interest' is wrong: a "
-         "surrounding polygon completely contains the area (the key's own 'contained' case is "
-         "the one inside the area).",),
+        (
+            "'Surrounding polygons are completely inside the area of interest' is wrong: a "
+            "surrounding polygon completely contains the area (the key's own 'contained' case is "
+            "the one inside the area).",
+        ),
     ),
     "Q4d": (
         "A B-spline curve P(u) = Σ p_k B_{k,d}(u) blends n+1 control points with piecewise "
@@ -1089,8 +1261,10 @@ _DESCRIPTIVE = {
         "measured in the path's moving frame (tangent and normal).",
         "Lab 08 §deformation (skinning weights, the candy-wrapper artefact, a curve deformer); "
         "gfxlab.animation.skin, the curve deformer in gfxlab.animation.",
-        ("The key pairs 'Curve Deformer' with 'Skinning deformation'. Skinning is the bone "
-         "(skeleton) deformer's technique; a curve deformer bends a mesh along a curve.",),
+        (
+            "The key pairs 'Curve Deformer' with 'Skinning deformation'. Skinning is the bone "
+            "(skeleton) deformer's technique; a curve deformer bends a mesh along a curve.",
+        ),
     ),
 }
 
@@ -1100,58 +1274,104 @@ _DESCRIPTIVE = {
 
 def _question_texts() -> list[tuple[str, str, str, bool, Callable]]:
     numeric = {
-        "Q1b": ("Midpoint circle algorithm",
-                "Explain the method of circle drawing using the Midpoint Circle Algorithm.", _q1b),
-        "Q1f": ("Cohen-Sutherland acceptance and rejection tests",
-                "Explain the acceptance and rejection test using bit codes in the Cohen-Sutherland "
-                "line clipping algorithm.", _q1f),
-        "Q2a": ("Window to viewport", "Perform mapping from window to viewport coordinate "
-                "transformation.", _q2a),
-        "Q2b": ("Translate, then rotate the unit square", "Using homogeneous coordinate "
-                "transformation matrices, apply translation by (1, 1) and then rotation by 90° to "
-                "a unit square centred at the origin.", _q2b),
-        "Q2c": ("Scaling about a fixed point", "Obtain the general combined matrix for scaling "
-                "about a fixed point P(xf, yf).", _q2c),
-        "Q2f": ("Shear of the unit cube", "Shear a unit cube situated at the origin with the "
-                "given shear transformation matrix.", _q2f),
+        "Q1b": (
+            "Midpoint circle algorithm",
+            "Explain the method of circle drawing using the Midpoint Circle Algorithm.",
+            _q1b,
+        ),
+        "Q1f": (
+            "Cohen-Sutherland acceptance and rejection tests",
+            "Explain the acceptance and rejection test using bit codes in the Cohen-Sutherland "
+            "line clipping algorithm.",
+            _q1f,
+        ),
+        "Q2a": (
+            "Window to viewport",
+            "Perform mapping from window to viewport coordinate transformation.",
+            _q2a,
+        ),
+        "Q2b": (
+            "Translate, then rotate the unit square",
+            "Using homogeneous coordinate "
+            "transformation matrices, apply translation by (1, 1) and then rotation by 90° to "
+            "a unit square centred at the origin.",
+            _q2b,
+        ),
+        "Q2c": (
+            "Scaling about a fixed point",
+            "Obtain the general combined matrix for scaling about a fixed point P(xf, yf).",
+            _q2c,
+        ),
+        "Q2f": (
+            "Shear of the unit cube",
+            "Shear a unit cube situated at the origin with the given shear transformation matrix.",
+            _q2f,
+        ),
         "Q3d": ("Photometry", "Write a note on photometry.", _q3d),
         "Q3e": ("Grassmann's laws", "Explain Grassmann's laws.", _q3e),
-        "Q4c": ("Parametric ellipse", "Explain the parametric representation of an ellipse with "
-                "an example.", _q4c),
-        "Q4f": ("Bezier curve through A, B, C, D", "Construct the Bezier curve of order 3 with "
-                "polygon vertices A(1,1) B(2,3) C(4,3) D(6,4) at u = 0, 1/4, 1/2, 3/4, 1.", _q4f),
-        "Q5c": ("Median filtering", "Explain the concept of median filtering with an example.",
-                _q5c),
+        "Q4c": (
+            "Parametric ellipse",
+            "Explain the parametric representation of an ellipse with an example.",
+            _q4c,
+        ),
+        "Q4f": (
+            "Bezier curve through A, B, C, D",
+            "Construct the Bezier curve of order 3 with "
+            "polygon vertices A(1,1) B(2,3) C(4,3) D(6,4) at u = 0, 1/4, 1/2, 3/4, 1.",
+            _q4f,
+        ),
+        "Q5c": (
+            "Median filtering",
+            "Explain the concept of median filtering with an example.",
+            _q5c,
+        ),
         "Q5f": ("JPEG compression", "Explain the JPEG compression process in detail.", _q5f),
     }
     descriptive_text = {
-        "Q1a": ("Computer graphics and video display devices", "What is computer graphics? How "
-                "is an image displayed on a video display device?"),
-        "Q1c": ("Active and passive graphics devices", "Distinguish between active and passive "
-                "graphics devices."),
+        "Q1a": (
+            "Computer graphics and video display devices",
+            "What is computer graphics? How is an image displayed on a video display device?",
+        ),
+        "Q1c": (
+            "Active and passive graphics devices",
+            "Distinguish between active and passive graphics devices.",
+        ),
         "Q1d": ("Aliasing", "Explain the problems of aliasing with examples."),
         "Q1e": ("Video formats", "Explain different types of video formats."),
-        "Q2d": ("Affine and perspective geometry", "Write a note on affine and perspective "
-                "geometry."),
-        "Q2e": ("Orthographic projection", "Explain projection with the help of orthographic "
-                "projection."),
-        "Q3a": ("Viewing and the canonical view volume", "What is viewing? Explain the canonical "
-                "view volume."),
-        "Q3b": ("Camera model and viewing pyramid", "Explain the camera model and the viewing "
-                "pyramid with a diagram."),
+        "Q2d": (
+            "Affine and perspective geometry",
+            "Write a note on affine and perspective geometry.",
+        ),
+        "Q2e": (
+            "Orthographic projection",
+            "Explain projection with the help of orthographic projection.",
+        ),
+        "Q3a": (
+            "Viewing and the canonical view volume",
+            "What is viewing? Explain the canonical view volume.",
+        ),
+        "Q3b": (
+            "Camera model and viewing pyramid",
+            "Explain the camera model and the viewing pyramid with a diagram.",
+        ),
         "Q3c": ("Properties of the BRDF", "Explain different properties of the BRDF."),
         "Q3f": ("Colorimetry", "Explain colour with the help of colorimetry."),
         "Q4a": ("Z-buffer", "Explain the z-buffer algorithm with advantages and disadvantages."),
         "Q4b": ("Warnock's algorithm", "What are the basic tests in Warnock's algorithm?"),
         "Q4d": ("B-spline curves", "Write a note on B-spline curves."),
-        "Q4e": ("Visible-surface methods compared", "Compare all visible surface detection "
-                "methods."),
-        "Q5a": ("Images and file formats", "What is an image? Explain different file formats of "
-                "an image."),
-        "Q5b": ("Animation and character animation", "Explain animation with character "
-                "animation."),
-        "Q5d": ("Key-frame and procedural animation", "Distinguish key-frame animation from "
-                "procedural animation."),
+        "Q4e": (
+            "Visible-surface methods compared",
+            "Compare all visible surface detection methods.",
+        ),
+        "Q5a": (
+            "Images and file formats",
+            "What is an image? Explain different file formats of an image.",
+        ),
+        "Q5b": ("Animation and character animation", "Explain animation with character animation."),
+        "Q5d": (
+            "Key-frame and procedural animation",
+            "Distinguish key-frame animation from procedural animation.",
+        ),
         "Q5e": ("Deformation", "Explain different types of deformation."),
     }
     out = []
@@ -1212,10 +1432,20 @@ def main(command: str = "exam", argv: list[str] | None = None) -> int:
         description="The seed exam solved with gfxlab: list the questions or show one answer.",
     )
     parser.add_argument("id", nargs="?", help="question id, e.g. Q2b; 'all' for every answer")
-    parser.add_argument("--markdown", nargs="?", const="-", metavar="FILE",
-                        help="write Markdown with LaTeX (to FILE, or stdout)")
-    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                        help="a question option, e.g. --set radius=12 for Q1b")
+    parser.add_argument(
+        "--markdown",
+        nargs="?",
+        const="-",
+        metavar="FILE",
+        help="write Markdown with LaTeX (to FILE, or stdout)",
+    )
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a question option, e.g. --set radius=12 for Q1b",
+    )
     args = parser.parse_args(argv if argv is not None else sys.argv[1:])
     if args.id is None:
         for q in QUESTIONS.values():

@@ -12,19 +12,33 @@ from gfxlab import exam
 
 matplotlib.use("Agg")
 
-SEED_BLOCK = np.array([
-    [-76, -73, -67, -62, -58, -67, -64, -55], [-65, -69, -73, -38, -19, -43, -59, -56],
-    [-66, -69, -60, -15, 16, -24, -62, -55], [-65, -70, -57, -6, 26, -22, -58, -59],
-    [-61, -67, -60, -24, -2, -40, -60, -58], [-49, -63, -68, -58, -51, -60, -70, -53],
-    [-43, -57, -64, -69, -73, -67, -63, -45], [-41, -49, -59, -60, -63, -52, -50, -34],
-], float)
+SEED_BLOCK = np.array(
+    [
+        [-76, -73, -67, -62, -58, -67, -64, -55],
+        [-65, -69, -73, -38, -19, -43, -59, -56],
+        [-66, -69, -60, -15, 16, -24, -62, -55],
+        [-65, -70, -57, -6, 26, -22, -58, -59],
+        [-61, -67, -60, -24, -2, -40, -60, -58],
+        [-49, -63, -68, -58, -51, -60, -70, -53],
+        [-43, -57, -64, -69, -73, -67, -63, -45],
+        [-41, -49, -59, -60, -63, -52, -50, -34],
+    ],
+    float,
+)
 # ITU-T T.81 Table K.1
-LUMA = np.array([
-    [16, 11, 10, 16, 24, 40, 51, 61], [12, 12, 14, 19, 26, 58, 60, 55],
-    [14, 13, 16, 24, 40, 57, 69, 56], [14, 17, 22, 29, 51, 87, 80, 62],
-    [18, 22, 37, 56, 68, 109, 103, 77], [24, 35, 55, 64, 81, 104, 113, 92],
-    [49, 64, 78, 87, 103, 121, 120, 101], [72, 92, 95, 98, 112, 100, 103, 99],
-], float)
+LUMA = np.array(
+    [
+        [16, 11, 10, 16, 24, 40, 51, 61],
+        [12, 12, 14, 19, 26, 58, 60, 55],
+        [14, 13, 16, 24, 40, 57, 69, 56],
+        [14, 17, 22, 29, 51, 87, 80, 62],
+        [18, 22, 37, 56, 68, 109, 103, 77],
+        [24, 35, 55, 64, 81, 104, 113, 92],
+        [49, 64, 78, 87, 103, 121, 120, 101],
+        [72, 92, 95, 98, 112, 100, 103, 99],
+    ],
+    float,
+)
 
 
 def test_registry_covers_every_seed_question():
@@ -72,16 +86,24 @@ def test_q1b_trace(radius):
     trace = exam.solve("Q1b", radius=radius).values["trace"]
     np.testing.assert_array_equal(trace, _midpoint_trace(radius))
     if radius == 10:
-        assert [tuple(r[2:]) for r in trace] == [(1, 10), (2, 10), (3, 10), (4, 9), (5, 9),
-                                                 (6, 8), (7, 7)]
+        assert [tuple(r[2:]) for r in trace] == [
+            (1, 10),
+            (2, 10),
+            (3, 10),
+            (4, 9),
+            (5, 9),
+            (6, 8),
+            (7, 7),
+        ]
         assert trace[0][1] == -9
 
 
 def test_q1f_codes_and_walkthrough():
     answer = exam.solve("Q1f")
     codes = answer.values["region_codes"]
-    np.testing.assert_array_equal(codes, [[0b1001, 0b0001, 0b0101], [0b1000, 0, 0b0100],
-                                          [0b1010, 0b0010, 0b0110]])
+    np.testing.assert_array_equal(
+        codes, [[0b1001, 0b0001, 0b0101], [0b1000, 0, 0b0100], [0b1010, 0b0010, 0b0110]]
+    )
     ad, ei = answer.values["AD"], answer.values["EI"]
     assert [s["action"] for s in ad] == ["clip", "accept"] and ad[0]["edge"] == "top"
     assert [s["edge"] for s in ei[:3]] == ["bottom", "top", "right"]
@@ -92,8 +114,9 @@ def test_q2a_matrix():
     window, viewport = (1.0, 1.0, 5.0, 4.0), (0.0, 0.0, 320.0, 120.0)
     sx, sy = 320 / 4, 120 / 3
     expected = np.array([[sx, 0, 0 - sx * 1], [0, sy, 0 - sy * 1], [0, 0, 1]])
-    np.testing.assert_allclose(exam.solve("Q2a", window=window, viewport=viewport)
-                               .values["matrix"], expected)
+    np.testing.assert_allclose(
+        exam.solve("Q2a", window=window, viewport=viewport).values["matrix"], expected
+    )
 
 
 def test_q2b_vertices_both_conventions():
@@ -114,8 +137,10 @@ def test_q2c_closed_form():
 
 def test_q2f_vertices():
     t = np.array([[1, 1.5, 3], [0.8, 0, 1], [0.5, 1, 1]])
-    cube = np.array([[0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1], [0, 0, 0], [1, 0, 0], [1, 1, 0],
-                     [0, 1, 0]], float)
+    cube = np.array(
+        [[0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1], [0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]],
+        float,
+    )
     np.testing.assert_allclose(exam.solve("Q2f").values["vertices"], cube @ t)
     np.testing.assert_allclose(exam.solve("Q2f").values["vertices"][6], [1.8, 1.5, 4.0])
 
@@ -134,8 +159,12 @@ def test_q3d_photometry():
 
 
 def test_q4f_bezier_exact_fractions():
-    control = [(Fraction(1), Fraction(1)), (Fraction(2), Fraction(3)), (Fraction(4), Fraction(3)),
-               (Fraction(6), Fraction(4))]
+    control = [
+        (Fraction(1), Fraction(1)),
+        (Fraction(2), Fraction(3)),
+        (Fraction(4), Fraction(3)),
+        (Fraction(6), Fraction(4)),
+    ]
     us = [Fraction(0), Fraction(1, 4), Fraction(1, 2), Fraction(3, 4), Fraction(1)]
 
     def point(u):
@@ -198,8 +227,9 @@ def test_question_lookup():
 
 
 def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "gfxlab", "exam", *args], capture_output=True,
-                          text=True)
+    return subprocess.run(
+        [sys.executable, "-m", "gfxlab", "exam", *args], capture_output=True, text=True
+    )
 
 
 def test_cli_lists_prints_and_writes_markdown(tmp_path):

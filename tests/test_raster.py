@@ -35,6 +35,8 @@ def test_points_to_image_drops_outside(maybe_jit):
 def test_pixel_bad_inputs():
     with pytest.raises(ValueError, match="xy"):
         raster.pixel_to_index(jnp.zeros((3, 3)), (4, 4))
+    with pytest.raises(ValueError, match="rc"):
+        raster.index_to_pixel(jnp.zeros(3), (4, 4))
     with pytest.raises(ValueError, match="shape"):
         raster.image_extent((4,))
     with pytest.raises(ValueError, match="shape"):
@@ -67,8 +69,9 @@ def test_lines_match_skimage_and_steps(p0, p1):
 
 
 @pytest.mark.parametrize("p0, p1", LINES)
-def test_lines_within_half_pixel_along_major_axis(p0, p1):
-    pts = np.asarray(raster.line_bresenham(p0, p1))
+@pytest.mark.parametrize("fn", [raster.line_bresenham, raster.line_dda])
+def test_lines_within_half_pixel_along_major_axis(p0, p1, fn):
+    pts = np.asarray(fn(p0, p1))
     (x0, y0), (x1, y1) = p0, p1
     assert tuple(pts[0]) == p0 and tuple(pts[-1]) == p1
     assert len(pts) == max(abs(x1 - x0), abs(y1 - y0)) + 1
