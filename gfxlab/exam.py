@@ -816,6 +816,8 @@ def _q4c(q: Question, *, center=(1.0, 1.0), radii=(3.0, 2.0), angle=0.0) -> Answ
     t = np.array([0, np.pi / 4, np.pi / 2, np.pi, 3 * np.pi / 2])
     pts = np.asarray(curves.ellipse(jnp.asarray(center), jnp.asarray(radii), angle, jnp.asarray(t)))
     names = ("0", "π/4", "π/2", "π", "3π/2")
+    c, s = np.cos(angle), np.sin(angle)
+    local = (pts - np.asarray(center)) @ np.array([[c, -s], [s, c]])  # undo the rotation
     steps = (
         Step(
             "Parametric form",
@@ -831,7 +833,7 @@ def _q4c(q: Question, *, center=(1.0, 1.0), radii=(3.0, 2.0), angle=0.0) -> Answ
         ),
         Step(
             "Check: every point satisfies ((x-h)/a)² + ((y-k)/b)² = 1",
-            f"max deviation {np.max(np.abs(np.sum(((pts - center) / radii) ** 2, 1) - 1)):.1e}",
+            f"max deviation {np.max(np.abs(np.sum((local / radii) ** 2, 1) - 1)):.1e}",
         ),
     )
     return Answer(

@@ -187,29 +187,36 @@ def test_window_to_viewport_matches_seed_q2a(maybe_jit):
     )
 
 
-def test_gradients():
-    p = jnp.array([[0.3, -0.2, 0.5], [1.0, 2.0, -1.0]])
-    check_grads(lambda o: tf.apply(tf.translate(o), p), (jnp.array([0.1, 0.2, 0.3]),), order=2)
-    check_grads(lambda a: tf.apply(tf.rotate_x(a), p), (0.4,), order=2)
-    check_grads(lambda a: tf.apply(tf.rotate_y(a), p), (0.4,), order=2)
-    check_grads(lambda a: tf.apply(tf.rotate_z(a), p), (0.4,), order=2)
-    check_grads(lambda ax, a: tf.rotate_axis(ax, a), (jnp.array([1.0, 2.0, 0.5]), 0.3), order=2)
-    check_grads(
-        lambda s, c: tf.scale(s, center=c), (jnp.array([2.0, 3.0]), jnp.array([1.0, 1.0])), order=2
-    )
-    check_grads(lambda k: tf.shear(xy=k, zx=k), (0.5,), order=2)
-    check_grads(
-        lambda n, q: tf.reflect(n, point=q), (jnp.array([1.0, 2.0]), jnp.array([0.5, 0.0])), order=2
-    )
-    check_grads(lambda a: tf.apply(tf.rotate(a), p[:, :2]), (0.4,), order=2)
-    check_grads(
-        lambda w, v: tf.window_to_viewport(w, v),
+_P3 = jnp.array([[0.3, -0.2, 0.5], [1.0, 2.0, -1.0]])
+GRADIENT_CASES = {
+    "translate": (lambda o: tf.apply(tf.translate(o), _P3), (jnp.array([0.1, 0.2, 0.3]),)),
+    "rotate": (lambda a: tf.apply(tf.rotate(a), _P3[:, :2]), (0.4,)),
+    "rotate_x": (lambda a: tf.apply(tf.rotate_x(a), _P3), (0.4,)),
+    "rotate_y": (lambda a: tf.apply(tf.rotate_y(a), _P3), (0.4,)),
+    "rotate_z": (lambda a: tf.apply(tf.rotate_z(a), _P3), (0.4,)),
+    "rotate_axis": (tf.rotate_axis, (jnp.array([1.0, 2.0, 0.5]), 0.3)),
+    "scale": (lambda s, c: tf.scale(s, center=c), (jnp.array([2.0, 3.0]), jnp.array([1.0, 1.0]))),
+    "shear": (lambda k: tf.shear(xy=k, zx=k), (0.5,)),
+    "linear": (tf.linear, (jnp.eye(3) * 2,)),
+    "reflect": (
+        lambda n, q: tf.reflect(n, point=q),
+        (jnp.array([1.0, 2.0]), jnp.array([0.5, 0.0])),
+    ),
+    "compose": (lambda a, b: tf.compose(tf.rotate(a), tf.rotate(b)), (0.1, 0.2)),
+    "apply": (lambda m: tf.apply(m, _P3), (jnp.eye(4).at[3, 2].set(0.1),)),
+    "from_homogeneous": (tf.from_homogeneous, (jnp.array([[1.0, 2.0, 0.5]]),)),
+    "window_to_viewport": (
+        tf.window_to_viewport,
         (jnp.array([0.0, 0.0, 2.0, 3.0]), jnp.array([1.0, 1.0, 5.0, 4.0])),
-        order=2,
-    )
-    check_grads(lambda m: tf.apply(m, p), (jnp.eye(4).at[3, 2].set(0.1),), order=2)
-    check_grads(lambda m: tf.linear(m), (jnp.eye(3) * 2,), order=1)
-    check_grads(lambda a, b: tf.compose(tf.rotate(a), tf.rotate(b)), (0.1, 0.2), order=1)
+    ),
+}
+
+
+@pytest.mark.parametrize("name", list(GRADIENT_CASES))
+def test_gradients(name):
+    fn, args = GRADIENT_CASES[name]
+    # Jitted, so each derivative compiles once instead of dispatching op by op.
+    check_grads(jax.jit(fn), args, order=2)
 
 
 def test_degenerate_rotation_axis_gradient_is_finite():
