@@ -58,11 +58,18 @@ def main():
         for path in config["hide"]:
             if os.path.isdir(path):
                 _mount("tmpfs", path, "tmpfs", MS_RDONLY | MS_NOSUID | MS_NODEV, "mode=0,size=4k")
-        # Private, small temporary directories: nothing shared with other runs or the host.
+        # Private, small temporary directories: nothing shared with other runs or the host,
+        # except the Python installation and gfxlab when they live there (a checkout in /tmp).
         for path in config["private_tmp"]:
             if os.path.isdir(path):
+                inside = [k for k in config.get("keep", []) if k.startswith(path.rstrip("/") + "/")]
+                handles = [os.open(k, os.O_PATH) for k in inside]
                 size = f"mode=1777,size={config['tmp_mb']}m"
                 _mount("tmpfs", path, "tmpfs", MS_NOSUID | MS_NODEV, size)
+                for kept, handle in zip(inside, handles, strict=True):
+                    os.makedirs(kept, mode=0o755, exist_ok=True)
+                    _mount(f"/proc/self/fd/{handle}", kept, None, MS_BIND | MS_REC)
+                    os.close(handle)
         os.makedirs(config["workdir"], mode=0o700, exist_ok=True)
         if uid is not None:
             os.chown(config["workdir"], uid, uid)

@@ -130,11 +130,15 @@ def _closed_to_others(path: pathlib.Path) -> pathlib.Path | None:
 
 
 def _required_paths() -> list[pathlib.Path]:
-    """Directories the worker must read: the Python installation, the venv, gfxlab."""
+    """Directories the worker must read: the Python installation, the venv, gfxlab.
+
+    Only the `gfxlab` package itself, not the checkout around it: the checkout holds the
+    assignment sources with their solutions and hidden tests.
+    """
     paths = {
         pathlib.Path(os.path.realpath(sys.base_prefix)),
         pathlib.Path(os.path.realpath(sys.prefix)),
-        _HERE.parents[1],
+        _HERE.parent,
     }
     return sorted(paths)
 
@@ -191,6 +195,7 @@ def _probe(flags, drop, expose) -> bool:
         "expose": [list(e) for e in expose],
         "hide": [],
         "private_tmp": ["/tmp", "/var/tmp", "/dev/shm"] if "--mount" in flags else [],
+        "keep": [str(p) for p in _required_paths()],
         "tmp_mb": 1,
         "rlimits": {},
         "workdir": workdir,
@@ -362,6 +367,7 @@ class Sandbox:
             "expose": [list(e) for e in prot.expose],
             "hide": list(self.hidden) if prot.mount_namespace else [],
             "private_tmp": ["/tmp", "/var/tmp", "/dev/shm"] if prot.mount_namespace else [],
+            "keep": list(prot.required_paths),
             "tmp_mb": int(self.limits.tmp_mb),
             "jax_cache": cache,
             "rlimits": self._rlimits(),
