@@ -1,10 +1,10 @@
 """Baseline JFIF files: `encode` (bit-exact with libjpeg-turbo / Pillow) and `decode`.
 
-The encoder runs libjpeg's integer pipeline (`_libjpeg.forward`) on all blocks at
-once, then entropy-codes with NumPy: every Huffman "event" (a DC difference, a ZRL,
-a run/size pair with its extra bits, an EOB) becomes one `(bits, length)` pair whose
-slot in the stream follows from a cumulative sum of per-coefficient event counts; the
-bits are then unpacked with `np.repeat`, packed into bytes and 0xFF-stuffed.
+The encoder (`_encoder`) runs libjpeg's integer pipeline on all blocks at once and
+turns every coefficient slot into at most one Huffman event (a DC difference, a ZRL,
+a run/size code with its extra bits, an EOB), all static shapes: NumPy for small
+images, one compiled XLA program for large ones. NumPy then drops the empty slots,
+concatenates the bits into 32-bit words and 0xFF-stuffs the bytes.
 
 The decoder parses the markers, then decodes the entropy-coded data with one Python
 step per Huffman symbol over precomputed tables (a 16-bit look-ahead window at every
@@ -14,8 +14,11 @@ bit position), and reconstructs pixels exactly as libjpeg-turbo does by default
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
+from gfxlab.jpeg import _encoder as E
 from gfxlab.jpeg import _libjpeg as L
 from gfxlab.jpeg._tables import (
     AC_CHROMINANCE,
@@ -128,134 +131,29 @@ def _setup(arr, quality, luma_factors):
 
 # --- encoder ----------------------------------------------------------------------
 
-
-def _scan_order(coefs, factors, height, width):
-    """Blocks of all components in scan (MCU) order, zig-zagged: `(N, 64)` and the
-    component index of each, with libjpeg's dummy blocks at the MCU padding (AC = 0,
-    DC copied from the neighbour, as jccoefct.c does)."""
-    zz = [c.reshape(*c.shape[:2], 64)[..., ZIGZAG] for c in coefs]
-    if len(coefs) == 1:
-        return zz[0].reshape(-1, 64), np.zeros(zz[0].shape[0] * zz[0].shape[1], np.int64)
-    hmax = max(f[0] for f in factors)
-    vmax = max(f[1] for f in factors)
-    mcu_x = -(-width // (8 * hmax))
-    mcu_y = -(-height // (8 * vmax))
-    per_mcu, comp_ids = [], []
-    for c, (grid, (h, v)) in enumerate(zip(zz, factors, strict=True)):
-        rows, cols = grid.shape[:2]
-        full = np.zeros((mcu_y * v, mcu_x * h, 64), grid.dtype)
-        full[:rows, :cols] = grid
-        full[:rows, cols:, 0] = grid[:, cols - 1 : cols, 0]
-        for r in range(rows, mcu_y * v):  # at most v - 1 dummy block rows
-            last_in_mcu = full[r - 1, h - 1 :: h, 0]
-            full[r, :, 0] = np.repeat(last_in_mcu, h)
-        mcus = full.reshape(mcu_y, v, mcu_x, h, 64).transpose(0, 2, 1, 3, 4)
-        per_mcu.append(mcus.reshape(mcu_y * mcu_x, v * h, 64))
-        comp_ids += [c] * (v * h)
-    blocks = np.concatenate(per_mcu, axis=1)
-    ids = np.tile(np.array(comp_ids), blocks.shape[0])
-    return blocks.reshape(-1, 64), ids
+# From this many pixels on, the dense core runs as one compiled XLA program (compiled
+# once per image size, then several times faster than NumPy); smaller images stay in
+# NumPy, where compiling would cost more than it saves.
+_COMPILE_FROM_PIXELS = 1 << 16
 
 
-_BIT_LENGTH = np.zeros(1 << 16, np.int64)
-for _bits in range(1, 17):
-    _BIT_LENGTH[1 << (_bits - 1) : 1 << _bits] = _bits
+@functools.lru_cache(maxsize=128)
+def _divisors(quality: int, n_components: int) -> np.ndarray:
+    luma, chroma = integer_tables(quality)
+    return E.quantizers([luma, chroma, chroma][:n_components])
 
 
-def _bit_length(x: np.ndarray) -> np.ndarray:
-    return _BIT_LENGTH[np.abs(x)]
-
-
-def _code_arrays(spec, size: int):
-    codes = np.zeros(size, np.int64)
-    lengths = np.zeros(size, np.int64)
-    for sym, (code, length) in huffman_codes(spec).items():
-        codes[sym], lengths[sym] = code, length
-    return codes, lengths
-
-
-def _code_table(specs, size: int) -> tuple[np.ndarray, np.ndarray]:
-    """Codes and lengths indexed by [table id, symbol] (length 0: no code)."""
-    pairs = [_code_arrays(spec, size) for spec in specs]
-    return np.stack([c for c, _ in pairs]), np.stack([n for _, n in pairs])
-
-
-_DC_CODE, _DC_LEN = _code_table((DC_LUMINANCE, DC_CHROMINANCE), 16)
-_AC_CODE, _AC_LEN = _code_table((AC_LUMINANCE, AC_CHROMINANCE), 256)
-
-
-def _huffman_events(blocks, components, table_ids):
-    """Every Huffman event of the scan as `(value, length)`, in stream order.
-
-    `components[i]` / `table_ids[i]`: component and table (0 luma, 1 chroma) of block i.
-    Per block the events are: the DC difference, then for each nonzero AC coefficient
-    its ZRLs (one per 16 preceding zeros) and its (run, size) symbol, then EOB if the
-    block ends in zeros. Work is proportional to the number of nonzero coefficients.
-    """
-    n = blocks.shape[0]
-    nz_b, nz_k = np.nonzero(blocks[:, 1:])  # sorted by block, then zig-zag position
-    value = blocks[nz_b, nz_k + 1].astype(np.int64)
-    same_block = np.concatenate([[False], nz_b[1:] == nz_b[:-1]])
-    previous = np.where(same_block, np.concatenate([[-1], nz_k[:-1]]), -1)
-    run = nz_k - previous - 1
-    zrl = run >> 4
-    last = np.concatenate([nz_b[1:] != nz_b[:-1], [True]]) if nz_b.size else np.zeros(0, bool)
-    last_k = np.full(n, -1)
-    last_k[nz_b[last]] = nz_k[last]
-    eob = last_k < 62
-
-    per_nz = zrl + 1
-    per_block = np.bincount(nz_b, weights=per_nz, minlength=n).astype(np.int64)
-    events = 1 + per_block + eob
-    start = np.cumsum(events) - events
-    before = np.cumsum(per_block) - per_block
-    main = start[nz_b] + np.cumsum(per_nz) - before[nz_b]
-
-    total = int(events.sum())
-    values = np.empty(total, np.int64)
-    lengths = np.empty(total, np.int64)
-
-    dc = blocks[:, 0].astype(np.int64)
-    diff = np.empty_like(dc)
-    for c in np.unique(components):
-        sel = components == c
-        diff[sel] = np.diff(dc[sel], prepend=0)
-    cat = _bit_length(diff)
-    values[start] = (_DC_CODE[table_ids, cat] << cat) | np.where(
-        diff < 0, diff + (1 << cat) - 1, diff
-    )
-    lengths[start] = _DC_LEN[table_ids, cat] + cat
-
-    t = table_ids[nz_b]
-    size = _bit_length(value)
-    symbol = (run & 15) << 4 | size
-    values[main] = (_AC_CODE[t, symbol] << size) | np.where(
-        value < 0, value + (1 << size) - 1, value
-    )
-    lengths[main] = _AC_LEN[t, symbol] + size
-    for j in range(1, 4):
-        has = zrl >= j
-        at = main[has] - j
-        values[at] = _AC_CODE[t[has], 0xF0]
-        lengths[at] = _AC_LEN[t[has], 0xF0]
-    at = (start + events - 1)[eob]
-    values[at] = _AC_CODE[table_ids[eob], 0]
-    lengths[at] = _AC_LEN[table_ids[eob], 0]
-    return values, lengths
-
-
-def _pack_bits(values, lengths) -> bytes:
-    """Concatenate the codes MSB first, pad with 1-bits, stuff 0x00 after 0xFF."""
-    total = int(lengths.sum())
-    ends = np.cumsum(lengths) - 1
-    shift = np.repeat(ends, lengths) - np.arange(total)
-    bits = (np.repeat(values, lengths) >> shift) & 1
-    bits = np.concatenate([bits, np.ones((-total) % 8, np.int64)]).astype(np.uint8)
-    packed = np.packbits(bits)
-    ff = packed == 0xFF
-    stuffed = np.repeat(packed, 1 + ff)
-    stuffed[np.flatnonzero(ff) + np.arange(1, int(ff.sum()) + 1)] = 0
-    return stuffed.tobytes()
+def _scan(arr: np.ndarray, quality: int, lay: E.Layout, *, compiled: bool | None = None) -> bytes:
+    """Entropy-coded segment of `arr` (uint8, unpadded) for layout `lay`."""
+    divisors = _divisors(quality, len(lay.components))
+    padded = E.pad_input(arr, lay)
+    if compiled is None:
+        compiled = arr.shape[0] * arr.shape[1] >= _COMPILE_FROM_PIXELS
+    if compiled:
+        events = np.asarray(E.compiled_scan_events(lay)(padded, divisors))
+    else:
+        events = E.scan_events(padded, divisors, lay, np)
+    return E.pack_scan(events)
 
 
 def _segment(marker: int, payload: bytes) -> bytes:
@@ -289,16 +187,17 @@ def encode(image, *, quality: int = 75, subsampling: str = "4:2:0") -> bytes:
     arr = _as_uint8(image)
     quality = _check_quality(quality)
     luma_factors = _check_subsampling(subsampling)
-    planes, factors, tables, table_ids = _setup(arr, quality, luma_factors)
     height, width = arr.shape[:2]
-    coefs = L.forward(planes, factors, tables, np)
-    blocks, comp = _scan_order(coefs, factors, height, width)
-    values, lengths = _huffman_events(blocks, comp, np.asarray(table_ids)[comp])
-    n_comp = len(planes)
+    grey = arr.ndim == 2
+    factors = [luma_factors] if grey else [luma_factors, (1, 1), (1, 1)]
+    tables = integer_tables(quality)[: 1 if grey else 2]
+    table_ids = [0] if grey else [0, 1, 1]
+    scan = _scan(arr, quality, E.layout(height, width, tuple(factors)))
+    n_comp = len(factors)
     n_tables = 1 if n_comp == 1 else 2
     out = [b"\xff\xd8", _segment(0xE0, b"JFIF\x00\x01\x01\x00\x00\x01\x00\x01\x00\x00")]
     for t in range(n_tables):
-        zz = tables[table_ids.index(t)].reshape(-1)[ZIGZAG]
+        zz = tables[t].reshape(-1)[ZIGZAG]
         out.append(_segment(0xDB, bytes([t, *zz.astype(np.uint8).tolist()])))
     sof = bytes([8, *height.to_bytes(2, "big"), *width.to_bytes(2, "big"), n_comp])
     for c, ((h, v), t) in enumerate(zip(factors, table_ids, strict=True)):
@@ -311,7 +210,7 @@ def encode(image, *, quality: int = 75, subsampling: str = "4:2:0") -> bytes:
     for c, t in enumerate(table_ids):
         sos += bytes([c + 1, t << 4 | t])
     out.append(_segment(0xDA, sos + b"\x00\x3f\x00"))
-    out.append(_pack_bits(values, lengths))
+    out.append(scan)
     out.append(b"\xff\xd9")
     return b"".join(out)
 

@@ -1,0 +1,355 @@
+"""The baseline encoder's dense core: pixels in, one Huffman event per coefficient.
+
+A baseline scan is a sequence of Huffman "events": per block a DC difference, then for
+each nonzero AC coefficient its ZRLs (one per 16 preceding zeros) and its (run, size)
+symbol, then an EOB if the block ends in zeros. Each of those can be given a fixed slot
+among the block's 64 zig-zag positions, so the whole scan fits a static
+`(blocks, 64)` array and needs no data-dependent shapes:
+
+- slot 0 holds the DC difference;
+- a nonzero AC coefficient holds its own (run, size) code and extra bits;
+- the zero that completes each run of 16 before a later nonzero holds a ZRL;
+- the slot right after the last nonzero holds the EOB.
+
+Every event is at most 26 bits (a 16-bit code and 10 extra bits), so an event and its
+length pack into one uint32, `(bits << 5) | length`, and an empty slot is 0. The same
+code runs in NumPy (small images, no compilation) and as one jitted XLA program (large
+images); `pack_scan` then drops the empty slots and concatenates the bits.
+
+Everything that depends on the image size is static; the quantization divisors are
+arguments, so every quality shares one compiled program per image shape.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+
+from gfxlab.jpeg import _libjpeg as L
+from gfxlab.jpeg._tables import (
+    AC_CHROMINANCE,
+    AC_LUMINANCE,
+    DC_CHROMINANCE,
+    DC_LUMINANCE,
+    ZIGZAG,
+    huffman_codes,
+)
+
+
+def _symbol_table(spec, size: int, dc: bool) -> np.ndarray:
+    """`(code << 10) | (extra bits << 5) | code length` per symbol (0: no code)."""
+    table = np.zeros(size, np.int64)
+    for symbol, (code, length) in huffman_codes(spec).items():
+        extra = symbol if dc else symbol & 15
+        table[symbol] = code << 10 | extra << 5 | length
+    return table
+
+
+# Indexed by 256 * AC table id + AC symbol, or 512 + 16 * DC table id + DC category
+# (table 0 luminance, 1 chrominance).
+_SYMBOLS = np.concatenate(
+    [_symbol_table(spec, 256, False) for spec in (AC_LUMINANCE, AC_CHROMINANCE)]
+    + [_symbol_table(spec, 16, True) for spec in (DC_LUMINANCE, DC_CHROMINANCE)]
+)
+_EXTRA_BITS = 11  # at most 11 extra bits (a DC difference); the symbol index above them
+
+# AC positions 1..63 and, per position p, the masks of the positions below p in the
+# two 32-bit halves of a 64-bit "nonzero" mask (bit p of the block's mask).
+_POSITIONS = np.arange(1, 64, dtype=np.uint32)
+_BELOW_LO = np.array([(1 << min(p, 32)) - 1 for p in range(1, 64)], np.uint64).astype(np.uint32)
+_BELOW_HI = np.array([(1 << max(p - 32, 0)) - 1 for p in range(1, 64)], np.uint32)
+_BIT_IN_WORD = (_POSITIONS % 32).astype(np.uint32)
+
+
+def _bit_length(x, xp):
+    """Bits needed for the unsigned 32-bit values `x` (0 for 0)."""
+    if xp is np:
+        return np.frexp(x.astype(np.float64))[1].astype(np.int64)  # exact below 2**53
+    import jax.lax as lax
+
+    return (32 - lax.clz(x.astype(np.uint32))).astype(np.int32)
+
+
+def _magnitude_bits(value, xp):
+    """JPEG's (size, extra bits) of signed values: negative v is coded as v + 2**size - 1."""
+    size = _bit_length(xp.abs(value).astype(np.uint32), xp)
+    extra = xp.where(value < 0, value + xp.left_shift(1, size) - 1, value)
+    return size, extra.astype(np.uint32)
+
+
+def _nonzero_words(nonzero, xp):
+    """`(N, 63)` AC nonzero flags (positions 1..63) -> two uint32 words per block: bit p
+    of the 64-bit mask marks position p; bit 0 stands for the DC and is always set, so
+    that "previous nonzero" defaults to position 0."""
+    in_lo = _POSITIONS < 32
+    flags = xp.left_shift(nonzero.astype(np.uint32), _BIT_IN_WORD)
+    lo_flags = xp.where(in_lo, flags, np.uint32(0))
+    hi_flags = xp.where(in_lo, np.uint32(0), flags)
+    if xp is np:
+        lo, hi = lo_flags.sum(axis=1, dtype=np.uint32), hi_flags.sum(axis=1, dtype=np.uint32)
+    else:  # one pass over the flags for both words
+        import jax.lax as lax
+
+        zero = np.uint32(0)
+        lo, hi = lax.reduce(
+            (lo_flags, hi_flags), (zero, zero), lambda a, b: (a[0] | b[0], a[1] | b[1]), (1,)
+        )
+    return lo | np.uint32(1), hi
+
+
+def block_events(zigzagged, dc_difference, table_ids, xp):
+    """Huffman events of blocks, one slot per zig-zag position.
+
+    **Arguments:**
+
+    - `zigzagged`: `(N, 64)` quantized coefficients in zig-zag order (column 0 ignored).
+    - `dc_difference`: `(N,)` DC minus the previous block's DC of the same component.
+    - `table_ids`: `(N,)` Huffman table of each block (0 luminance, 1 chrominance).
+    - `xp`: `numpy` or `jax.numpy`.
+
+    **Returns:**
+
+    `(N, 64)` uint32 events `(symbol index + 1) << 11 | extra bits`, 0 where a slot
+    emits nothing; the symbol index points into `_SYMBOLS`, looked up after compaction.
+    """
+    ac = zigzagged[:, 1:]
+    nonzero = ac != 0
+    lo, hi = _nonzero_words(nonzero, xp)
+    hi_below = hi[:, None] & _BELOW_HI
+    previous = xp.where(
+        hi_below != 0,
+        31 + _bit_length(hi_below, xp),
+        _bit_length(lo[:, None] & _BELOW_LO, xp) - 1,
+    )
+    last = xp.where(hi != 0, 31 + _bit_length(hi, xp), _bit_length(lo, xp) - 1)[:, None]
+    positions = _POSITIONS.astype(np.int32)
+    run = positions - previous - 1
+
+    size, extra = _magnitude_bits(ac, xp)
+    t = xp.asarray(table_ids).astype(np.int32)
+    ac_base = (t * 256 + 1)[:, None]  # + 1: 0 stays "no event"
+    symbol = xp.left_shift(run & 15, 4) | size
+    zrl = ~nonzero & (positions < last) & (((positions - previous) & 15) == 0)
+    eob = positions == last + 1
+    index = xp.where(nonzero, symbol, xp.where(zrl, 0xF0, 0)) + ac_base
+    index = xp.where(nonzero | zrl | eob, index, 0).astype(np.uint32)
+    events = xp.left_shift(index, _EXTRA_BITS) | extra
+
+    dc_size, dc_extra = _magnitude_bits(dc_difference, xp)
+    dc = xp.left_shift((512 + 1 + t * 16 + dc_size).astype(np.uint32), _EXTRA_BITS) | dc_extra
+    return xp.concatenate([dc[:, None], events], axis=1)
+
+
+def pack_scan(events: np.ndarray) -> bytes:
+    """Entropy-coded segment from packed events in stream order: concatenate the bits
+    MSB first, pad the last byte with 1-bits, stuff a 0x00 after every 0xFF."""
+    flat = events.reshape(-1)
+    events = np.compress(flat != 0, flat)
+    symbol = _SYMBOLS[(events >> _EXTRA_BITS) - 1]  # (code << 10) | (size << 5) | length
+    size = (symbol >> 5) & 31
+    lengths = (symbol & 31) + size
+    bits = (symbol >> 10 << size | (events & ((1 << _EXTRA_BITS) - 1))).astype(np.uint64)
+    lengths = lengths.astype(np.int64)
+    end = np.cumsum(lengths)
+    total = int(end[-1]) if end.size else 0
+    pad = -total % 8
+    if pad:  # the 1-bit padding is one more event
+        bits = np.append(bits, np.uint64((1 << pad) - 1))
+        lengths = np.append(lengths, pad)
+        end = np.append(end, total + pad)
+    start = end - lengths
+    # Each event (<= 26 bits) straddles at most two 32-bit words: place it in a 64-bit
+    # window starting at its first word and split. Events never share bits, so the
+    # words are sums of the pieces (float64 weights are exact below 2**53).
+    word = start >> 5
+    window = bits << (64 - (start & 31) - lengths).astype(np.uint64)
+    high = (window >> np.uint64(32)).astype(np.float64)
+    low = (window & np.uint64(0xFFFFFFFF)).astype(np.float64)
+    n_words = -(-(total + pad) // 32) + 1
+    words = np.bincount(word, high, n_words) + np.bincount(word + 1, low, n_words)
+    data = words.astype(np.uint32).astype(">u4").view(np.uint8)[: (total + pad) // 8]
+    ff = np.flatnonzero(data == 0xFF)
+    if ff.size:
+        data = np.insert(data, ff + 1, 0)
+    return data.tobytes()
+
+
+# --- static layout ----------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Component:
+    factors: tuple[int, int]  # (h, v) sampling factors (1, 1 when not interleaved)
+    step: tuple[int, int]  # downsampling (horizontal, vertical)
+    rows_in: int  # rows of the full-resolution plane that are downsampled
+    cols_in: int
+    blocks: tuple[int, int]  # real blocks (rows, cols)
+    grid: tuple[int, int]  # blocks including the MCU padding (rows, cols)
+    table: int  # Huffman / quantization table id
+
+
+@dataclass(frozen=True, eq=False)
+class Layout:
+    """Everything `encode` needs to know about an image size, as static numbers."""
+
+    components: tuple[_Component, ...]
+    mcus: tuple[int, int]  # MCU rows, MCU columns (1 x 1 blocks when not interleaved)
+    padded: tuple[int, int]  # input size after edge replication
+    table_ids: np.ndarray  # (blocks,) Huffman table of each block, scan order
+    dc_source: np.ndarray  # (blocks,) block whose DC each block carries (dummies copy)
+    dummy: np.ndarray  # (blocks,) libjpeg's zero-AC padding blocks
+
+    @property
+    def blocks_per_mcu(self) -> list[int]:
+        return [c.factors[0] * c.factors[1] for c in self.components]
+
+
+def _scan_index(lay_mcus, comp: _Component, offset: int, blocks_per_mcu: int) -> np.ndarray:
+    """Scan position of every block of a component's grid `(grid rows, grid cols)`."""
+    h, v = comp.factors
+    rows, cols = np.indices(comp.grid)
+    mcu = (rows // v) * lay_mcus[1] + cols // h
+    return mcu * blocks_per_mcu + offset + (rows % v) * h + cols % h
+
+
+@functools.lru_cache(maxsize=256)
+def layout(height: int, width: int, factors: tuple[tuple[int, int], ...]) -> Layout:
+    """libjpeg's geometry (jcmaster.c, jcprepct.c, jccoefct.c) for an image size.
+
+    `factors` lists `(h, v)` per component; a lone component is coded without MCU
+    interleaving, whatever factors its header records.
+    """
+    interleaved = len(factors) > 1
+    if not interleaved:
+        factors = ((1, 1),)
+    hmax, vmax, geometry = L.component_layout(height, width, factors)
+    mcu_x = -(-width // (8 * hmax))
+    mcu_y = -(-height // (8 * vmax))
+    components = []
+    for c, ((h, v), _, (bh, bw)) in enumerate(geometry):
+        grid = (mcu_y * v, mcu_x * h) if interleaved else (bh, bw)
+        step = (hmax // h, vmax // v)
+        rows_in = -(-height // vmax) * vmax
+        components.append(
+            _Component((h, v), step, rows_in, bw * 8 * step[0], (bh, bw), grid, min(c, 1))
+        )
+    mcus = (mcu_y, mcu_x) if interleaved else components[0].blocks
+    per_mcu = sum(c.factors[0] * c.factors[1] for c in components)
+    n_blocks = mcus[0] * mcus[1] * per_mcu
+    table_ids = np.zeros(n_blocks, np.int32)
+    dc_source = np.arange(n_blocks)
+    dummy = np.zeros(n_blocks, bool)
+    offset = 0
+    for comp in components:
+        index = _scan_index(mcus, comp, offset, per_mcu)
+        table_ids[index] = comp.table
+        # jccoefct.c: a dummy block right of the image copies the DC of the last real
+        # block in its row; a dummy row below copies, per MCU, the DC of the block
+        # above the MCU's last column.
+        source = index.copy()
+        rows, cols = comp.blocks
+        source[:, cols:] = source[:, cols - 1 : cols]
+        h = comp.factors[0]
+        for r in range(rows, comp.grid[0]):
+            source[r] = np.repeat(source[r - 1, h - 1 :: h], h)
+        dc_source[index] = source
+        dummy[index] = True
+        dummy[index[:rows, :cols]] = False
+        offset += comp.factors[0] * comp.factors[1]
+    rows = max(c.grid[0] * 8 * c.step[1] for c in components)
+    cols = max(c.grid[1] * 8 * c.step[0] for c in components)
+    return Layout(tuple(components), mcus, (rows, cols), table_ids, dc_source, dummy)
+
+
+def pad_input(image: np.ndarray, lay: Layout) -> np.ndarray:
+    """Edge-replicate the image to `lay.padded` (colour conversion is per pixel, so this
+    equals libjpeg's replication of the converted planes; what lands in dummy blocks
+    is replaced)."""
+    rows, cols = lay.padded
+    if image.shape[:2] == (rows, cols):
+        return image
+    pad = [(0, rows - image.shape[0]), (0, cols - image.shape[1])] + [(0, 0)] * (image.ndim - 2)
+    return np.pad(image, pad, mode="edge")
+
+
+def quantizers(tables) -> np.ndarray:
+    """libjpeg-turbo's reciprocal divisors per component: `(components, 3, 8, 8)` for
+    (reciprocal, correction, shift), indexed like the transposed coefficients of
+    `_fdct`, (horizontal, vertical) frequency."""
+    return np.stack([np.stack(L.reciprocals(t)).swapaxes(1, 2) for t in tables]).astype(np.uint32)
+
+
+# `_fdct` leaves coefficient (v, u) at 8 * u + v; the zig-zag gather reads it from there.
+_ZIGZAG_TRANSPOSED = np.array([8 * (n % 8) + n // 8 for n in ZIGZAG.tolist()])
+
+
+def _fdct(blocks, xp):
+    """jfdctint.c on level-shifted `(..., 8, 8)` samples; the output is transposed,
+    `[..., u, v]` for horizontal frequency u and vertical frequency v (the column pass
+    reads the row pass's output transposed, and that is its natural layout)."""
+    m = L.FDCT_MATRIX.T.astype(np.int32)
+    rows = L._descale(blocks @ m, L.CONST_BITS - L.PASS1_BITS, xp)
+    return L._descale(xp.swapaxes(rows, -1, -2) @ m, L.CONST_BITS + L.PASS1_BITS, xp)
+
+
+def scan_coefficients(image, divisors, lay: Layout, xp):
+    """Quantized coefficients `(blocks in scan order, 64)`, zig-zag order, of an
+    edge-padded uint8 image, and the DC differences `(blocks,)` the scan codes.
+
+    **Arguments:**
+
+    - `image`: `pad_input(image, lay)`, `(rows, cols)` grey or `(rows, cols, 3)` RGB.
+    - `divisors`: `quantizers(tables)`, one set per component.
+    - `lay`: `layout(...)` of the unpadded size.
+    - `xp`: `numpy` or `jax.numpy`.
+    """
+    planes = [image.astype(np.int32)] if image.ndim == 2 else list(L.rgb_to_ycc(image, xp))
+    mcu_rows, mcu_cols = lay.mcus
+    per_mcu, component = [], []
+    for c, (plane, comp) in enumerate(zip(planes, lay.components, strict=True)):
+        (fh, fv), (h, v) = comp.step, comp.factors
+        small = L.downsample(plane[: comp.rows_in, : comp.cols_in], fh, fv, xp)
+        small = L.pad_edge(small, comp.grid[0] * 8, comp.grid[1] * 8, xp).astype(np.int32)
+        # Pixels straight into scan order: (MCU, block in MCU, 8, 8).
+        cells = small.reshape(mcu_rows, v, 8, mcu_cols, h, 8).transpose(0, 3, 1, 4, 2, 5)
+        per_mcu.append(cells.reshape(mcu_rows * mcu_cols, v * h, 8, 8) - 128)
+        component += [c] * (v * h)
+    coefficients = _fdct(xp.concatenate(per_mcu, axis=1), xp)  # (MCU, block, 8, 8)
+    recip, corr, shift = xp.moveaxis(xp.asarray(divisors)[np.array(component)], 1, 0)
+    magnitude = xp.abs(coefficients).astype(np.uint32)
+    quantized = xp.right_shift((magnitude + corr) * recip, shift).astype(np.int32)
+    quantized = xp.where(coefficients < 0, -quantized, quantized).reshape(-1, 64)
+    quantized = xp.where(lay.dummy[:, None], 0, quantized[:, _ZIGZAG_TRANSPOSED])
+    quantized = quantized.astype(np.int16)  # |q| <= 2047: halves the traffic
+    dc = quantized[:, 0][lay.dc_source].reshape(mcu_rows * mcu_cols, len(component))
+    dc_difference = []
+    for c in range(len(lay.components)):
+        own = dc[:, np.flatnonzero(np.array(component) == c)]
+        flat = own.reshape(-1)
+        previous = xp.concatenate([xp.zeros(1, flat.dtype), flat[:-1]])
+        dc_difference.append((flat - previous).reshape(own.shape))
+    return quantized, xp.concatenate(dc_difference, axis=1).reshape(-1)
+
+
+def scan_events(image, divisors, lay: Layout, xp):
+    """Huffman events `(blocks in scan order, 64)` of an edge-padded uint8 image (see
+    `scan_coefficients` and `block_events`)."""
+    quantized, dc_difference = scan_coefficients(image, divisors, lay, xp)
+    return block_events(quantized, dc_difference, lay.table_ids, xp)
+
+
+@functools.lru_cache(maxsize=32)
+def compiled_scan_events(lay: Layout):
+    """`scan_events` as jitted XLA programs for this layout (cached).
+
+    Two programs, not one: compiled together, XLA lays the zig-zag gather's output
+    out slots-first and the event kernels then run about twice as slow.
+    """
+    import jax
+    import jax.numpy as jnp
+
+    coefficients = jax.jit(lambda image, divisors: scan_coefficients(image, divisors, lay, jnp))
+    events = jax.jit(lambda q, dc: block_events(q, dc, lay.table_ids, jnp))
+    return lambda image, divisors: events(*coefficients(image, divisors))
