@@ -12,10 +12,13 @@ import jpeglib
 import numpy as np
 import pytest
 import scipy.fft
+from hypothesis import given
+from hypothesis import strategies as st
 from jax.test_util import check_grads
 from PIL import Image
 
 from gfxlab import jpeg
+from gfxlab.jpeg import _encoder, codec
 
 # The seed's Q5f block after the level shift (as printed in the exam answer).
 SEED_SHIFTED = np.array(
@@ -252,14 +255,68 @@ def test_coefficients_equal_libjpeg(quality, shape):
     np.testing.assert_array_equal(jpeg.coefficients(img[..., 1], quality=quality)[0], ref[0])
 
 
+@pytest.mark.parametrize("compiled", [False, True], ids=["numpy", "xla"])
 @pytest.mark.parametrize("quality", [1, 10, 50, 75, 90, 95, 100])
-def test_encode_is_byte_identical_to_pillow(quality):
+def test_encode_is_byte_identical_to_pillow(quality, compiled, monkeypatch):
+    # Small images normally take the NumPy path; force each path in turn.
+    monkeypatch.setattr(codec, "_COMPILE_FROM_PIXELS", 0 if compiled else 1 << 62)
     for shape in [(1, 1), (9, 17), (33, 70)]:
         img = photo(*shape, seed=quality + shape[0])
         for subsampling in SUBSAMPLINGS:
             ours = jpeg.encode(img, quality=quality, subsampling=subsampling)
             assert ours == pillow_bytes(img, quality, subsampling), (shape, subsampling)
         assert jpeg.encode(img[..., 2], quality=quality) == pillow_bytes(img[..., 2], quality)
+
+
+def test_encode_large_images_byte_identical_to_pillow():
+    # Above the size where `encode` switches to the compiled programs; odd sizes
+    # exercise the edge replication and libjpeg's dummy blocks.
+    assert 261 * 259 >= codec._COMPILE_FROM_PIXELS
+    img = photo(261, 259, seed=3)
+    for quality, subsampling in [(1, "4:2:0"), (75, "4:2:0"), (95, "4:2:2"), (100, "4:4:4")]:
+        ours = jpeg.encode(img, quality=quality, subsampling=subsampling)
+        assert ours == pillow_bytes(img, quality, subsampling), (quality, subsampling)
+    assert b"\xff\x00" in ours  # byte stuffing exercised
+    assert jpeg.encode(img[..., 0], quality=60) == pillow_bytes(img[..., 0], 60)
+
+
+@st.composite
+def _zigzag_blocks(draw):
+    """Zig-zagged blocks with long zero runs, trailing nonzeros and empty blocks."""
+    n = draw(st.integers(1, 6))
+    blocks = np.zeros((n, 64), np.int64)
+    for i in range(n):
+        positions = draw(st.lists(st.integers(0, 63), max_size=12, unique=True))
+        for p in positions:
+            blocks[i, p] = draw(st.integers(-1023, 1023).filter(bool))
+        blocks[i, 0] = draw(st.integers(-1024, 1016))
+    chroma = draw(st.lists(st.booleans(), min_size=n, max_size=n))
+    return blocks, np.array(chroma)
+
+
+@given(_zigzag_blocks())
+def test_dense_block_events_equal_textbook_huffman_coding(case):
+    blocks, chroma = case
+    # Textbook: symbol by symbol, each table's DC predicted from its own last block.
+    bits, last_dc = "", {False: 0, True: 0}
+    for block, c in zip(blocks, chroma.tolist(), strict=True):
+        symbols = jpeg.huffman_code_block(block, previous_dc=last_dc[c], chroma=c)
+        bits += "".join(h + e for _, h, e in symbols)
+        last_dc[c] = int(block[0])
+    bits += "1" * (-len(bits) % 8)
+    expected = bytes(int(bits[i : i + 8], 2) for i in range(0, len(bits), 8))
+    expected = expected.replace(b"\xff", b"\xff\x00")
+    difference = blocks[:, 0].copy()
+    for c in (False, True):
+        own = np.flatnonzero(chroma == c)
+        difference[own] = np.diff(blocks[own, 0], prepend=0)
+    tables = chroma.astype(np.int32)
+    ours_np = _encoder.block_events(blocks, difference, tables, np)
+    ours_jax = jax.jit(lambda b, d: _encoder.block_events(b, d, tables, jnp))(
+        blocks.astype(np.int32), difference.astype(np.int32)
+    )
+    np.testing.assert_array_equal(np.asarray(ours_jax), ours_np)
+    assert _encoder.pack_scan(ours_np) == expected
 
 
 def test_pillow_decodes_our_files_and_we_decode_them_exactly():

@@ -3,7 +3,7 @@
 The encoder (`_encoder`) runs libjpeg's integer pipeline on all blocks at once and
 turns every coefficient slot into at most one Huffman event (a DC difference, a ZRL,
 a run/size code with its extra bits, an EOB), all static shapes: NumPy for small
-images, one compiled XLA program for large ones. NumPy then drops the empty slots,
+images, compiled XLA programs for large ones. NumPy then drops the empty slots,
 concatenates the bits into 32-bit words and 0xFF-stuffs the bytes.
 
 The decoder parses the markers, then decodes the entropy-coded data with one Python
@@ -131,7 +131,7 @@ def _setup(arr, quality, luma_factors):
 
 # --- encoder ----------------------------------------------------------------------
 
-# From this many pixels on, the dense core runs as one compiled XLA program (compiled
+# From this many pixels on, the dense core runs as compiled XLA programs (compiled
 # once per image size, then several times faster than NumPy); smaller images stay in
 # NumPy, where compiling would cost more than it saves.
 _COMPILE_FROM_PIXELS = 1 << 16
