@@ -188,13 +188,18 @@ def encode(image, *, quality: int = 75, subsampling: str = "4:2:0") -> bytes:
     quality = _check_quality(quality)
     luma_factors = _check_subsampling(subsampling)
     height, width = arr.shape[:2]
-    grey = arr.ndim == 2
-    factors = [luma_factors] if grey else [luma_factors, (1, 1), (1, 1)]
-    tables = integer_tables(quality)[: 1 if grey else 2]
-    table_ids = [0] if grey else [0, 1, 1]
-    scan = _scan(arr, quality, E.layout(height, width, tuple(factors)))
+    factors = (luma_factors,) if arr.ndim == 2 else (luma_factors, (1, 1), (1, 1))
+    scan = _scan(arr, quality, E.layout(height, width, factors))
+    return _headers(height, width, quality, factors) + scan + b"\xff\xd9"
+
+
+@functools.lru_cache(maxsize=256)
+def _headers(height: int, width: int, quality: int, factors: tuple) -> bytes:
+    """SOI, JFIF APP0, DQT, SOF0, DHT and SOS segments, as libjpeg writes them."""
     n_comp = len(factors)
     n_tables = 1 if n_comp == 1 else 2
+    tables = integer_tables(quality)[:n_tables]
+    table_ids = [0] if n_comp == 1 else [0, 1, 1]
     out = [b"\xff\xd8", _segment(0xE0, b"JFIF\x00\x01\x01\x00\x00\x01\x00\x01\x00\x00")]
     for t in range(n_tables):
         zz = tables[t].reshape(-1)[ZIGZAG]
@@ -210,8 +215,6 @@ def encode(image, *, quality: int = 75, subsampling: str = "4:2:0") -> bytes:
     for c, t in enumerate(table_ids):
         sos += bytes([c + 1, t << 4 | t])
     out.append(_segment(0xDA, sos + b"\x00\x3f\x00"))
-    out.append(scan)
-    out.append(b"\xff\xd9")
     return b"".join(out)
 
 
