@@ -172,6 +172,10 @@ def encode(image, *, quality: int = 75, subsampling: str = "4:2:0") -> bytes:
     Pillow's `Image.save(buf, "JPEG", quality=quality, subsampling=...)` (Pillow's
     subsampling 0, 1, 2 = "4:4:4", "4:2:2", "4:2:0").
 
+    Images of 65,536 pixels or more run as compiled XLA programs: the first call for
+    an image size compiles them (about half a second on a laptop CPU), later calls of
+    that size, at any quality, reuse them. Smaller images run in NumPy.
+
     **Arguments:**
 
     - `image`: `(H, W, 3)` RGB or `(H, W)` / `(H, W, 1)` grey; uint8, or float in
