@@ -143,6 +143,18 @@ def _divisors(quality: int, n_components: int) -> np.ndarray:
     return E.quantizers([luma, chroma, chroma][:n_components])
 
 
+def _aligned(arr: np.ndarray) -> np.ndarray:
+    """`arr`, C-contiguous at a 64-byte boundary: JAX on CPU then uses the memory as it
+    is instead of copying it (on a 512 x 512 RGB image the copy cost ~0.2 ms)."""
+    if arr.flags.c_contiguous and arr.ctypes.data % 64 == 0:
+        return arr
+    buffer = np.empty(arr.nbytes + 64, np.uint8)
+    start = -buffer.ctypes.data % 64
+    out = buffer[start : start + arr.nbytes].view(arr.dtype).reshape(arr.shape)
+    out[...] = arr
+    return out
+
+
 def _scan(arr: np.ndarray, quality: int, lay: E.Layout, *, compiled: bool | None = None) -> bytes:
     """Entropy-coded segment of `arr` (uint8, unpadded) for layout `lay`."""
     divisors = _divisors(quality, len(lay.components))
@@ -150,7 +162,7 @@ def _scan(arr: np.ndarray, quality: int, lay: E.Layout, *, compiled: bool | None
     if compiled is None:
         compiled = arr.shape[0] * arr.shape[1] >= _COMPILE_FROM_PIXELS
     if compiled:
-        events = np.asarray(E.compiled_scan_events(lay)(padded, divisors))
+        events = np.asarray(E.compiled_scan_events(lay)(_aligned(padded), divisors))
     else:
         events = E.scan_events(padded, divisors, lay, np)
     return E.pack_scan(events)
