@@ -317,6 +317,11 @@ def test_dense_block_events_equal_textbook_huffman_coding(case):
     )
     np.testing.assert_array_equal(np.asarray(ours_jax), ours_np)
     assert _encoder.pack_scan(ours_np) == expected
+    # The compiled encoder codes blocks in the DCT's transposed layout, then reorders.
+    transposed = np.zeros_like(blocks)
+    transposed[:, _encoder._ZIGZAG_TRANSPOSED] = blocks
+    in_fdct_order = _encoder.block_events(transposed, difference, tables, np, order="fdct")
+    np.testing.assert_array_equal(in_fdct_order[:, _encoder._ZIGZAG_TRANSPOSED], ours_np)
 
 
 def test_pillow_decodes_our_files_and_we_decode_them_exactly():

@@ -59,12 +59,24 @@ _EXTRA_BITS = 11  # at most 11 extra bits (a DC difference); the symbol index ab
 _CODE_SHIFTED = np.concatenate([[0], _SYMBOLS >> 10 << (_SYMBOLS >> 5 & 31)]).astype(np.uint64)
 _LENGTHS = np.concatenate([[0], (_SYMBOLS & 31) + (_SYMBOLS >> 5 & 31)])
 
-# AC positions 1..63 and, per position p, the masks of the positions below p in the
-# two 32-bit halves of a 64-bit "nonzero" mask (bit p of the block's mask).
-_POSITIONS = np.arange(1, 64, dtype=np.uint32)
-_BELOW_LO = np.array([(1 << min(p, 32)) - 1 for p in range(1, 64)], np.uint64).astype(np.uint32)
-_BELOW_HI = np.array([(1 << max(p - 32, 0)) - 1 for p in range(1, 64)], np.uint32)
-_BIT_IN_WORD = (_POSITIONS % 32).astype(np.uint32)
+
+class _Slots:
+    """Constants for AC slots 1..63 whose zig-zag positions are `positions`: the masks
+    of the positions below each one in the two 32-bit halves of a 64-bit mask."""
+
+    def __init__(self, positions: np.ndarray):
+        self.positions = positions.astype(np.int32)
+        self.in_lo = positions < 32
+        self.bit_in_word = (positions % 32).astype(np.uint32)
+        self.below_lo = np.array([(1 << min(p, 32)) - 1 for p in positions], np.uint64)
+        self.below_lo = self.below_lo.astype(np.uint32)
+        self.below_hi = np.array([(1 << max(p - 32, 0)) - 1 for p in positions], np.uint32)
+
+
+_ZIGZAG_RANK = np.argsort(ZIGZAG)  # zig-zag position of each natural index
+_IN_ZIGZAG_ORDER = _Slots(np.arange(1, 64))
+# `_fdct`'s layout: slot 8 * u + v holds coefficient (v, u), natural index 8 * v + u.
+_IN_FDCT_ORDER = _Slots(_ZIGZAG_RANK[[8 * (j % 8) + j // 8 for j in range(1, 64)]])
 
 
 def _bit_length(x, xp):
@@ -83,14 +95,13 @@ def _magnitude_bits(value, xp):
     return size, extra.astype(np.uint32)
 
 
-def _nonzero_words(nonzero, xp):
+def _nonzero_words(nonzero, slots: _Slots, xp):
     """`(N, 63)` AC nonzero flags (positions 1..63) -> two uint32 words per block: bit p
     of the 64-bit mask marks position p; bit 0 stands for the DC and is always set, so
     that "previous nonzero" defaults to position 0."""
-    in_lo = _POSITIONS < 32
-    flags = xp.left_shift(nonzero.astype(np.uint32), _BIT_IN_WORD)
-    lo_flags = xp.where(in_lo, flags, np.uint32(0))
-    hi_flags = xp.where(in_lo, np.uint32(0), flags)
+    flags = xp.left_shift(nonzero.astype(np.uint32), slots.bit_in_word)
+    lo_flags = xp.where(slots.in_lo, flags, np.uint32(0))
+    hi_flags = xp.where(slots.in_lo, np.uint32(0), flags)
     if xp is np:
         lo, hi = lo_flags.sum(axis=1, dtype=np.uint32), hi_flags.sum(axis=1, dtype=np.uint32)
     else:  # one pass over the flags for both words
@@ -103,12 +114,14 @@ def _nonzero_words(nonzero, xp):
     return lo | np.uint32(1), hi
 
 
-def block_events(zigzagged, dc_difference, table_ids, xp):
-    """Huffman events of blocks, one slot per zig-zag position.
+def block_events(coefficients, dc_difference, table_ids, xp, *, order: str = "zigzag"):
+    """Huffman events of blocks, one slot per coefficient.
 
     **Arguments:**
 
-    - `zigzagged`: `(N, 64)` quantized coefficients in zig-zag order (column 0 ignored).
+    - `coefficients`: `(N, 64)` quantized coefficients (column 0, the DC, ignored) in
+      zig-zag order, or with `order="fdct"` as `_fdct` lays them out; the events come
+      out in the same order.
     - `dc_difference`: `(N,)` DC minus the previous block's DC of the same component.
     - `table_ids`: `(N,)` Huffman table of each block (0 luminance, 1 chrominance).
     - `xp`: `numpy` or `jax.numpy`.
@@ -118,17 +131,18 @@ def block_events(zigzagged, dc_difference, table_ids, xp):
     `(N, 64)` uint32 events `(symbol index + 1) << 11 | extra bits`, 0 where a slot
     emits nothing; the symbol index points into `_SYMBOLS`, looked up after compaction.
     """
-    ac = zigzagged[:, 1:]
+    slots = {"zigzag": _IN_ZIGZAG_ORDER, "fdct": _IN_FDCT_ORDER}[order]
+    ac = coefficients[:, 1:]
     nonzero = ac != 0
-    lo, hi = _nonzero_words(nonzero, xp)
-    hi_below = hi[:, None] & _BELOW_HI
+    lo, hi = _nonzero_words(nonzero, slots, xp)
+    hi_below = hi[:, None] & slots.below_hi
     previous = xp.where(
         hi_below != 0,
         31 + _bit_length(hi_below, xp),
-        _bit_length(lo[:, None] & _BELOW_LO, xp) - 1,
+        _bit_length(lo[:, None] & slots.below_lo, xp) - 1,
     )
     last = xp.where(hi != 0, 31 + _bit_length(hi, xp), _bit_length(lo, xp) - 1)[:, None]
-    positions = _POSITIONS.astype(np.int32)
+    positions = slots.positions
     run = positions - previous - 1
 
     size, extra = _magnitude_bits(ac, xp)
@@ -346,20 +360,17 @@ def scan_events(image, divisors, lay: Layout, xp):
 def compiled_scan_events(lay: Layout):
     """`scan_events` as jitted XLA programs for this layout (cached).
 
-    Three programs, not one: compiled together, XLA lays the zig-zag gather's output
-    out slots-first (blocks along the minor axis), adds a transposing copy and runs
-    the event kernels on the transposed data; split, the whole takes about half the
-    time (measured on CPU).
+    The events are computed in `_fdct`'s coefficient order and put into zig-zag order
+    by a second program. Measured on CPU, that split is the fastest arrangement: with a
+    zig-zag gather inside the program, XLA lays the data out slots-first (blocks along
+    the minor axis) and every kernel after the gather runs about twice as slow.
     """
     import jax
     import jax.numpy as jnp
 
-    coefficients = jax.jit(lambda image, divisors: scan_coefficients(image, divisors, lay, jnp))
-    zigzag = jax.jit(_zigzag)
-    events = jax.jit(lambda q, dc: block_events(q, dc, lay.table_ids, jnp))
+    def events(image, divisors):
+        quantized, dc_difference = scan_coefficients(image, divisors, lay, jnp)
+        return block_events(quantized, dc_difference, lay.table_ids, jnp, order="fdct")
 
-    def run(image, divisors):
-        quantized, dc_difference = coefficients(image, divisors)
-        return events(zigzag(quantized), dc_difference)
-
-    return run
+    events, zigzag = jax.jit(events), jax.jit(_zigzag)
+    return lambda image, divisors: zigzag(events(image, divisors))
