@@ -59,8 +59,12 @@ def main() -> None:
     full = np.zeros((n, b), np.float32)
     cols = np.stack([rng.choice(b, 4, replace=False) for _ in range(n)])
     np.put_along_axis(full, cols, weights, axis=1)
-    mats = np.asarray(tf.compose(tf.rotate_axis(rng.normal(size=(b, 3)), rng.normal(size=b)),
-                                 tf.translate(rng.normal(size=(b, 3))))).astype(np.float32)
+    mats = np.asarray(
+        tf.compose(
+            tf.rotate_axis(rng.normal(size=(b, 3)), rng.normal(size=b)),
+            tf.translate(rng.normal(size=(b, 3))),
+        )
+    ).astype(np.float32)
     skin = jax.jit(A.skin)
     args = (jnp.asarray(verts), jnp.asarray(full), jnp.asarray(mats))
     ours = timeit(lambda: skin(*args), repeat=5, warmup=1)
@@ -75,8 +79,13 @@ def main() -> None:
     quats = rng.normal(size=(tracks, keys, 4)).astype(np.float32)
     quats /= np.linalg.norm(quats, axis=-1, keepdims=True)
     t = np.linspace(0, 10, samples).astype(np.float32)
-    track = A.Track(times=jnp.asarray(times), position=jnp.asarray(pos),
-                    rotation=jnp.asarray(quats), method="linear", rotation_method="slerp")
+    track = A.Track(
+        times=jnp.asarray(times),
+        position=jnp.asarray(pos),
+        rotation=jnp.asarray(quats),
+        method="linear",
+        rotation_method="slerp",
+    )
     evaluate = jax.jit(lambda tr, s: tr(s))
     tj = jnp.asarray(t)
     ours = timeit(lambda: evaluate(track, tj), repeat=3, warmup=1)
@@ -86,8 +95,12 @@ def main() -> None:
     err_p = np.abs(np.asarray(sample.position) - ref_p).max()
     # quaternion sign: the NumPy slerp does not align key signs; compare rotations
     err_q = np.abs(np.abs(np.sum(np.asarray(sample.rotation) * ref_q, -1)) - 1).max()
-    table.add(f"{tracks:,} tracks x {samples:,} times, linear pos + slerp rot", ours, ref,
-              f"pos |diff| {err_p:.1e}, rot 1-|dot| {err_q:.1e}")
+    table.add(
+        f"{tracks:,} tracks x {samples:,} times, linear pos + slerp rot",
+        ours,
+        ref,
+        f"pos |diff| {err_p:.1e}, rot 1-|dot| {err_q:.1e}",
+    )
 
     cr = A.Track(times=jnp.asarray(times), position=jnp.asarray(pos), method="catmull_rom")
     ours = timeit(lambda: evaluate(cr, tj), repeat=3, warmup=1)

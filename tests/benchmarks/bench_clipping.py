@@ -24,21 +24,32 @@ def main() -> None:
         return shapely.intersection(lines, box)
 
     ref = timeit(reference, repeat=1, warmup=0)
-    ref_total = timeit(lambda: shapely.intersection(shapely.linestrings(segments), box),
-                       repeat=1, warmup=0)
-    for name, fn in (("cohen_sutherland", clipping.cohen_sutherland),
-                     ("liang_barsky", clipping.liang_barsky)):
+    ref_total = timeit(
+        lambda: shapely.intersection(shapely.linestrings(segments), box), repeat=1, warmup=0
+    )
+    for name, fn in (
+        ("cohen_sutherland", clipping.cohen_sutherland),
+        ("liang_barsky", clipping.liang_barsky),
+    ):
         jitted = jax.jit(fn)
         ours = timeit(lambda f=jitted: f(device_segments, WINDOW), repeat=5)
-        table.add(f"{name} (jit), 10^6 segments", ours, ref,
-                  "shapely: intersection of prebuilt LineStrings with the box")
+        table.add(
+            f"{name} (jit), 10^6 segments",
+            ours,
+            ref,
+            "shapely: intersection of prebuilt LineStrings with the box",
+        )
     steps = jax.jit(clipping.cohen_sutherland_steps)
     ours = timeit(lambda: steps(device_segments, WINDOW), repeat=3)
     table.add("cohen_sutherland_steps (while_loop, vmapped)", ours, ref)
     cs = jax.jit(clipping.cohen_sutherland)
     ours = timeit(lambda: cs(segments, WINDOW), repeat=5)
-    table.add("cohen_sutherland from NumPy input", ours, ref_total,
-              "shapely timed with building the LineStrings")
+    table.add(
+        "cohen_sutherland from NumPy input",
+        ours,
+        ref_total,
+        "shapely timed with building the LineStrings",
+    )
     table.print()
 
 

@@ -33,8 +33,12 @@ def _bspline_case(table: Table, dtype, *, count=100, degree=3, samples=1_000_000
     ]:
         ours = timeit(lambda run=run: run(cp_j, knots_j, u_j), repeat=7, warmup=2)
         error = np.abs(np.asarray(run(cp_j, knots_j, u_j), np.float64) - reference(u)).max()
-        table.add(f"cubic B-spline, {count} cp, 10^6 u, d={dim}, {name}, {how}", ours, ref,
-                  f"max |ours - scipy| = {error:.1e}")
+        table.add(
+            f"cubic B-spline, {count} cp, 10^6 u, d={dim}, {name}, {how}",
+            ours,
+            ref,
+            f"max |ours - scipy| = {error:.1e}",
+        )
 
 
 def _bezier_case(table: Table):

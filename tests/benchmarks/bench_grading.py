@@ -24,8 +24,9 @@ sys.path.insert(0, str(ROOT / "tests"))
 from grading_attacks.attacks import ATTACKS, submission_cells, write_notebook  # noqa: E402
 
 SOURCES = sorted((ROOT / "labs" / "assignments").glob("[0-9][0-9]_*.ipynb"))
-ATTACK_LIMITS = dict(call_timeout=2.0, exec_timeout=3.0, memory_mb=1024, output_mb=4,
-                     processes=32, cpu_seconds=30)
+ATTACK_LIMITS = dict(
+    call_timeout=2.0, exec_timeout=3.0, memory_mb=1024, output_mb=4, processes=32, cpu_seconds=30
+)
 
 
 def _in_process(grader: Autograder, cells: list[str]) -> None:
@@ -63,8 +64,9 @@ def main() -> None:
     folder = work / "subs"
     folder.mkdir()
     wrong = [c.replace("rows.append((p, x, y))", "rows.append((p + 1, x, y))") for c in cells]
-    paths = [write_notebook(cells if i % 3 else wrong, folder / f"s{i:02d}.ipynb")
-             for i in range(50)]
+    paths = [
+        write_notebook(cells if i % 3 else wrong, folder / f"s{i:02d}.ipynb") for i in range(50)
+    ]
     start = time.perf_counter()
     results = grade_many(paths, grader.directory, work / "graded")
     ours = time.perf_counter() - start
@@ -76,19 +78,25 @@ def main() -> None:
     total = sum(r.score for r in results)
     table.add("01_midpoint_circle x 50", ours, ref, f"sum of scores {total:g}; asked < 90 s")
     bezier = graders["03_bezier"]
-    bpaths = [write_notebook(bezier.solution_cells(), folder / f"b{i:02d}.ipynb")
-              for i in range(10)]
+    bpaths = [
+        write_notebook(bezier.solution_cells(), folder / f"b{i:02d}.ipynb") for i in range(10)
+    ]
     start = time.perf_counter()
     bres = grade_many(bpaths, bezier.directory, work / "graded-b")
-    table.add("03_bezier (JAX) x 10", time.perf_counter() - start, None,
-              f"all 15: {all(r.score == 15 for r in bres)}")
+    table.add(
+        "03_bezier (JAX) x 10",
+        time.perf_counter() - start,
+        None,
+        f"all 15: {all(r.score == 15 for r in bres)}",
+    )
     table.print()
 
     table = Table("attack suite on 01_midpoint_circle (q1 attacked; limits 2 s, 1 GiB)")
     cheats, worst = 0, 0.0
     for attack in sorted(ATTACKS):
-        attack_cells = submission_cells(cells, attack, autograder=str(grader.directory),
-                                        source=str(SOURCES[0]), port=9)
+        attack_cells = submission_cells(
+            cells, attack, autograder=str(grader.directory), source=str(SOURCES[0]), port=9
+        )
         start = time.perf_counter()
         result = grader.grade_cells(attack_cells, limits=ATTACK_LIMITS)
         elapsed = time.perf_counter() - start
@@ -97,8 +105,12 @@ def main() -> None:
         cheated = scores[0] > 0 or scores[1:] != [5, 5]
         cheats += cheated
         table.add(attack, elapsed, None, f"scores {scores}{' CHEAT' if cheated else ''}")
-    table.add("total", sum(r[1] for r in table.rows), None,
-              f"{cheats} successful cheats; slowest run {worst:.1f} s")
+    table.add(
+        "total",
+        sum(r[1] for r in table.rows),
+        None,
+        f"{cheats} successful cheats; slowest run {worst:.1f} s",
+    )
     table.print()
     shutil.rmtree(work, ignore_errors=True)
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 import numpy as np
-from harness import Table, timeit
+from harness import Table, timeit, timeit_pair
 from PIL import Image
 
 from gfxlab import jpeg
@@ -54,18 +54,19 @@ def main() -> None:
     start = time.perf_counter()
     data = jpeg.encode(photo, quality=75)
     first = time.perf_counter() - start
-    # Medians of many interleaved-order runs: single runs of ~1 ms are noisy here.
+    # Medians of many runs, ours and Pillow's alternating: single runs of ~1 ms are noisy.
     table.add(
         "encode 512x512 RGB q=75 4:2:0",
-        timeit(lambda: jpeg.encode(photo, quality=75), repeat=51, warmup=3),
-        timeit(lambda: _pillow(photo, 75), repeat=51, warmup=3),
+        *timeit_pair(lambda: jpeg.encode(photo, quality=75), lambda: _pillow(photo, 75)),
         f"byte-identical: {data == _pillow(photo, 75)}; first call (compiles) {first:.2f} s",
     )
     grey = photo[..., 1].copy()
     table.add(
         "encode 512x512 grey q=75",
-        timeit(lambda: jpeg.encode(grey, quality=75, subsampling="4:4:4"), repeat=51, warmup=3),
-        timeit(lambda: _pillow(grey, 75, "4:4:4"), repeat=51, warmup=3),
+        *timeit_pair(
+            lambda: jpeg.encode(grey, quality=75, subsampling="4:4:4"),
+            lambda: _pillow(grey, 75, "4:4:4"),
+        ),
     )
     small = photo[:200, :200].copy()  # below the compile threshold: the NumPy path
     table.add(

@@ -27,8 +27,9 @@ def main() -> None:
     vertices = rng.uniform(0, 512, (12, 2))
     fill = jax.jit(raster.fill_polygon, static_argnames="shape")
     ours = timeit(lambda: fill(vertices, shape=(512, 512)), repeat=5)
-    ref = timeit(lambda: skimage.draw.polygon(512 - 1 - vertices[:, 1], vertices[:, 0],
-                                              (512, 512)), repeat=5)
+    ref = timeit(
+        lambda: skimage.draw.polygon(512 - 1 - vertices[:, 1], vertices[:, 0], (512, 512)), repeat=5
+    )
     table.add("fill_polygon 512x512, 12 vertices", ours, ref, "even-odd vs skimage polygon")
     coverage = jax.jit(raster.polygon_coverage, static_argnames="shape")
     ours = timeit(lambda: coverage(vertices / 2, shape=(256, 256)), repeat=5)

@@ -63,15 +63,31 @@ def value_and_grad(mesh, camera, shape, *, tile_size, capacity, binned=True, til
     """A jitted forward + backward of a loss on the rendered image (vertices)."""
     tri, inv, col, valid = R._project_mesh(mesh, camera, shape, None, 0.3)
     dtype = tri.dtype
-    params = (jnp.asarray(SIGMA, dtype), jnp.asarray(GAMMA, dtype), camera.near.astype(dtype),
-              camera.far.astype(dtype), jnp.zeros(3, dtype), jnp.asarray(1e-3, dtype))
+    params = (
+        jnp.asarray(SIGMA, dtype),
+        jnp.asarray(GAMMA, dtype),
+        camera.near.astype(dtype),
+        camera.far.astype(dtype),
+        jnp.zeros(3, dtype),
+        jnp.asarray(1e-3, dtype),
+    )
 
     def loss(vertices):
         m = Mesh(vertices, mesh.faces, mesh.colors)
         tri, inv, col, valid = R._project_mesh(m, camera, shape, None, 0.3)
-        out, _ = R._color_core(tri, inv, col, valid, params, shape=shape, eps=EPS,
-                               tile_size=tile_size, capacity=capacity,
-                               tiles_per_step=tiles_per_step, binned=binned)
+        out, _ = R._color_core(
+            tri,
+            inv,
+            col,
+            valid,
+            params,
+            shape=shape,
+            eps=EPS,
+            tile_size=tile_size,
+            capacity=capacity,
+            tiles_per_step=tiles_per_step,
+            binned=binned,
+        )
         return jnp.mean(out[..., :3]) + jnp.mean(out[..., 3])
 
     del tri, inv, col, valid
@@ -82,19 +98,21 @@ def main() -> None:
     shape = (256, 256)
     tile = 16
     mesh, camera = scene(10_000, 256)
-    scaling = Table("equal screen coverage (50 %), 256x256, same tile and capacity",
-                    "10,000 faces")
+    scaling = Table("equal screen coverage (50 %), 256x256, same tile and capacity", "10,000 faces")
     many, camera = scene(100_000, 256)
-    capacity = max(needed_capacity(many, camera, shape, 8), needed_capacity(mesh, camera,
-                                                                            shape, 8))
+    capacity = max(needed_capacity(many, camera, shape, 8), needed_capacity(mesh, camera, shape, 8))
     capacity = 32 * -(-capacity // 32)
     few_fn, v_few = value_and_grad(mesh, camera, shape, tile_size=8, capacity=capacity)
     many_fn, v_many = value_and_grad(many, camera, shape, tile_size=8, capacity=capacity)
     t_few = timeit(lambda: few_fn(v_few), repeat=3)
     t_many = timeit(lambda: many_fn(v_many), repeat=3)
     print(f"10k: {t_few * 1e3:.0f} ms, 100k: {t_many * 1e3:.0f} ms", flush=True)
-    scaling.add("100,000 faces vs 10,000 faces", t_many, t_few,
-                f"tile 8, capacity {capacity}; cost ratio {t_many / t_few:.2f}x (asked <= 2x)")
+    scaling.add(
+        "100,000 faces vs 10,000 faces",
+        t_many,
+        t_few,
+        f"tile 8, capacity {capacity}; cost ratio {t_many / t_few:.2f}x (asked <= 2x)",
+    )
     scaling.print()
 
     print("\n## memory, 1024x1024, 10,000 faces (forward + backward, compiled)\n")
@@ -106,11 +124,14 @@ def main() -> None:
     if stats is None:
         print("memory analysis not available on this backend")
     else:
-        total = stats.temp_size_in_bytes + stats.argument_size_in_bytes + (
-            stats.output_size_in_bytes)
-        print(f"capacity {capacity}: temporaries {stats.temp_size_in_bytes / 2**20:.1f} MiB, "
-              f"arguments {stats.argument_size_in_bytes / 2**20:.1f} MiB, outputs "
-              f"{stats.output_size_in_bytes / 2**20:.1f} MiB, total {total / 2**20:.1f} MiB")
+        total = (
+            stats.temp_size_in_bytes + stats.argument_size_in_bytes + (stats.output_size_in_bytes)
+        )
+        print(
+            f"capacity {capacity}: temporaries {stats.temp_size_in_bytes / 2**20:.1f} MiB, "
+            f"arguments {stats.argument_size_in_bytes / 2**20:.1f} MiB, outputs "
+            f"{stats.output_size_in_bytes / 2**20:.1f} MiB, total {total / 2**20:.1f} MiB"
+        )
         t_big = timeit(lambda: fn(v), repeat=1)
         print(f"time {t_big * 1e3:.0f} ms")
 
@@ -120,17 +141,22 @@ def main() -> None:
     fn, v = value_and_grad(mesh, camera, shape, tile_size=tile, capacity=capacity)
     ours = timeit(lambda: fn(v), repeat=3)
     print(f"binned: {ours * 1e3:.0f} ms (capacity {capacity})", flush=True)
-    dense_fn, _ = value_and_grad(mesh, camera, shape, tile_size=tile, capacity=10_000,
-                                 binned=False, tiles_per_step=1)
+    dense_fn, _ = value_and_grad(
+        mesh, camera, shape, tile_size=tile, capacity=10_000, binned=False, tiles_per_step=1
+    )
     dense_fn = dense_fn.lower(v).compile()  # compile first: time one run, it is slow
     start = time.perf_counter()
     ref_value, ref_grad = jax.block_until_ready(dense_fn(v))
     reference = time.perf_counter() - start
     value, grad = fn(v)
     err = float(jnp.max(jnp.abs(grad - ref_grad)) / jnp.max(jnp.abs(ref_grad)))
-    table.add("10,000 faces, binned vs all faces per tile", ours, reference,
-              f"tile {tile}, capacity {capacity}; |value diff| "
-              f"{abs(float(value - ref_value)):.1e}, max grad diff / max grad {err:.1e}")
+    table.add(
+        "10,000 faces, binned vs all faces per tile",
+        ours,
+        reference,
+        f"tile {tile}, capacity {capacity}; |value diff| "
+        f"{abs(float(value - ref_value)):.1e}, max grad diff / max grad {err:.1e}",
+    )
     table.print()
     print(flush=True)
 

@@ -25,6 +25,29 @@ def timeit(fn: Callable[[], object], *, repeat: int = 5, warmup: int = 1) -> flo
     return statistics.median(times)
 
 
+def timeit_pair(
+    ours: Callable[[], object],
+    reference: Callable[[], object],
+    *,
+    repeat: int = 51,
+    warmup: int = 3,
+) -> tuple[float, float]:
+    """Median wall times in seconds of `ours()` and `reference()`, called alternately so
+    that both see the same machine state (on a shared VM, speed drifts by tens of
+    percent over seconds; timing one after the other would fold that drift into the
+    ratio)."""
+    for _ in range(warmup):
+        jax.block_until_ready(ours())
+        jax.block_until_ready(reference())
+    times: tuple[list[float], list[float]] = ([], [])
+    for _ in range(repeat):
+        for fn, out in zip((ours, reference), times, strict=True):
+            start = time.perf_counter()
+            jax.block_until_ready(fn())
+            out.append(time.perf_counter() - start)
+    return statistics.median(times[0]), statistics.median(times[1])
+
+
 class Table:
     """A printed comparison table."""
 
