@@ -17,7 +17,7 @@ in NumPy (small images, no compilation) and as jitted XLA programs (large images
 `pack_scan` then drops the empty slots, looks the codes up and concatenates the bits.
 
 Everything that depends on the image size is static; the quantization divisors are
-arguments, so every quality shares one compiled program per image shape.
+arguments, so all qualities share the compiled programs of an image size.
 """
 
 from __future__ import annotations
@@ -61,8 +61,9 @@ _LENGTHS = np.concatenate([[0], (_SYMBOLS & 31) + (_SYMBOLS >> 5 & 31)])
 
 
 class _Slots:
-    """Constants for AC slots 1..63 whose zig-zag positions are `positions`: the masks
-    of the positions below each one in the two 32-bit halves of a 64-bit mask."""
+    """Constants for 63 AC slots whose zig-zag positions are `positions`: where each
+    position's bit sits in a 64-bit mask held as two 32-bit words, and the masks of
+    the positions below it in each word."""
 
     def __init__(self, positions: np.ndarray):
         self.positions = positions.astype(np.int32)
@@ -96,9 +97,9 @@ def _magnitude_bits(value, xp):
 
 
 def _nonzero_words(nonzero, slots: _Slots, xp):
-    """`(N, 63)` AC nonzero flags (positions 1..63) -> two uint32 words per block: bit p
-    of the 64-bit mask marks position p; bit 0 stands for the DC and is always set, so
-    that "previous nonzero" defaults to position 0."""
+    """`(N, 63)` nonzero flags of the AC slots -> two uint32 words per block: bit p of
+    the 64-bit mask marks a nonzero at zig-zag position p; bit 0 stands for the DC and
+    is always set, so that "previous nonzero" defaults to position 0."""
     flags = xp.left_shift(nonzero.astype(np.uint32), slots.bit_in_word)
     lo_flags = xp.where(slots.in_lo, flags, np.uint32(0))
     hi_flags = xp.where(slots.in_lo, np.uint32(0), flags)
@@ -213,10 +214,6 @@ class Layout:
     dc_source: np.ndarray  # (blocks,) block whose DC each block carries (dummies copy)
     dummy: np.ndarray  # (blocks,) libjpeg's zero-AC padding blocks
 
-    @property
-    def blocks_per_mcu(self) -> list[int]:
-        return [c.factors[0] * c.factors[1] for c in self.components]
-
 
 def _scan_index(lay_mcus, comp: _Component, offset: int, blocks_per_mcu: int) -> np.ndarray:
     """Scan position of every block of a component's grid `(grid rows, grid cols)`."""
@@ -307,8 +304,9 @@ def _fdct(blocks, xp):
 
 
 def scan_coefficients(image, divisors, lay: Layout, xp):
-    """Quantized coefficients `(blocks in scan order, 64)`, zig-zag order, of an
-    edge-padded uint8 image, and the DC differences `(blocks,)` the scan codes.
+    """Quantized coefficients `(blocks in scan order, 64)`, laid out as `_fdct` leaves
+    them, of an edge-padded uint8 image, and the DC differences `(blocks,)` the scan
+    codes.
 
     **Arguments:**
 
