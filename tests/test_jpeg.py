@@ -280,6 +280,24 @@ def test_encode_large_images_byte_identical_to_pillow():
     assert jpeg.encode(img[..., 0], quality=60) == pillow_bytes(img[..., 0], 60)
 
 
+def test_banded_encoding_equals_one_pass_for_any_band_count():
+    # The compiled encoder codes horizontal bands separately and carries the DC
+    # prediction across them; the result must not depend on where the bands fall.
+    img, factors = photo(150, 90, seed=7), ((2, 2), (1, 1), (1, 1))  # 10 MCU rows
+    lay = _encoder.layout(150, 90, factors)
+    divisors = codec._divisors(40, 3)
+    padded = _encoder.pad_input(img, lay)
+    expected = _encoder.pack_scan(_encoder.scan_events(padded, divisors, lay, np))
+    for bands in (1, 3, 10):
+        plan = _encoder.band_plan(150, 90, factors, bands)
+        assert len(plan) == bands and sum(band.mcus[0] for _, band in plan) == 10
+        aligned = codec._aligned(padded)
+        results = [
+            _encoder.compiled_band_events(band)(aligned, divisors, row) for row, band in plan
+        ]
+        assert _encoder.pack_bands(results, plan) == expected, bands
+
+
 @st.composite
 def _zigzag_blocks(draw):
     """Zig-zagged blocks with long zero runs, trailing nonzeros and empty blocks."""

@@ -15,6 +15,8 @@ A slot holds `(symbol index + 1) << 11 | extra bits` as one uint32 (0: no event)
 Huffman tables are looked up only after the empty slots are dropped. The same code runs
 in NumPy (small images, no compilation) and as jitted XLA programs (large images);
 `pack_scan` then drops the empty slots, looks the codes up and concatenates the bits.
+Large images go in horizontal bands of MCU rows (`band_plan`), so that NumPy packs one
+band while XLA computes the next; only DC prediction crosses bands (`pack_bands`).
 
 Everything that depends on the image size is static; the quantization divisors are
 arguments, so all qualities share the compiled programs of an image size.
@@ -161,25 +163,41 @@ def block_events(coefficients, dc_difference, table_ids, xp, *, order: str = "zi
     return xp.concatenate([dc[:, None], events], axis=1)
 
 
-def pack_scan(events: np.ndarray) -> bytes:
-    """Entropy-coded segment from events in stream order: concatenate the bits MSB
-    first, pad the last byte with 1-bits, stuff a 0x00 after every 0xFF."""
+def _nonempty(events: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The non-empty events, in stream order (a writable copy), and the emptiness mask."""
     flat = events.reshape(-1)
-    events = np.compress(flat != 0, flat)
+    mask = flat != 0
+    return np.compress(mask, flat), mask
+
+
+def _place(events: np.ndarray, first_bit: int) -> tuple[int, np.ndarray, int]:
+    """Non-empty events whose bits start at `first_bit` -> (first 32-bit word, the words
+    from there on as float64 sums, number of bits).
+
+    Each code (<= 26 bits) straddles at most two words: put it in a 64-bit window that
+    starts at its first word and split that. Codes never share bits, so a word is the
+    sum of its pieces (float64 is exact below 2**53).
+    """
     index = events >> _EXTRA_BITS
     bits = _CODE_SHIFTED[index] | (events & ((1 << _EXTRA_BITS) - 1))
     lengths = _LENGTHS[index]
-    end = np.cumsum(lengths)
-    total = int(end[-1]) if end.size else 0
+    end = np.cumsum(lengths) + first_bit
     start = end - lengths
-    # Each event (<= 26 bits) straddles at most two 32-bit words: place it in a 64-bit
-    # window starting at its first word and split. Events never share bits, so the
-    # words are sums of the pieces (float64 weights are exact below 2**53).
-    word = start >> 5
+    first_word = first_bit >> 5
+    word = (start >> 5) - first_word
     window = bits << (64 - (start & 31) - lengths).astype(np.uint64)
-    n_words = (total >> 5) + 2
+    n_words = ((int(end[-1]) if end.size else first_bit) >> 5) - first_word + 2
     words = np.bincount(word, (window >> np.uint64(32)).astype(np.float64), n_words)
     words += np.bincount(word + 1, (window & np.uint64(0xFFFFFFFF)).astype(np.float64), n_words)
+    return first_word, words, int(lengths.sum())
+
+
+def _finish(placed: list[tuple[int, np.ndarray, int]]) -> bytes:
+    """Words of consecutive pieces -> bytes, padded with 1-bits and 0xFF-stuffed."""
+    total = sum(n for _, _, n in placed)
+    words = np.zeros((total >> 5) + 2)
+    for first_word, piece, _ in placed:
+        words[first_word : first_word + piece.size] += piece[: words.size - first_word]
     data = words.astype(np.uint32).astype(">u4").view(np.uint8)[: -(-total // 8)].copy()
     if total % 8:
         data[-1] |= (1 << (-total % 8)) - 1
@@ -187,6 +205,39 @@ def pack_scan(events: np.ndarray) -> bytes:
     if ff.size:
         data = np.insert(data, ff + 1, 0)
     return data.tobytes()
+
+
+def pack_scan(events: np.ndarray) -> bytes:
+    """Entropy-coded segment from events in stream order: concatenate the bits MSB
+    first, pad the last byte with 1-bits, stuff a 0x00 after every 0xFF."""
+    return _finish([_place(_nonempty(events)[0], 0)])
+
+
+def _dc_event(difference: int, table: int) -> int:
+    size = abs(difference).bit_length()
+    extra = difference if difference >= 0 else difference + (1 << size) - 1
+    return (512 + 1 + 16 * table + size) << _EXTRA_BITS | extra
+
+
+def pack_bands(results, plan: list[tuple[int, Layout]]) -> bytes:
+    """Entropy-coded segment from the results of `compiled_band_events`, one per band of
+    `plan`, in order. Each band predicted its first DCs from 0; those DC differences
+    are recomputed from the previous band's last DCs. A band is packed as soon as it is
+    ready, while XLA still works on the later ones."""
+    placed, previous_last, bit = [], None, 0
+    for (events, first_dc, last_dc), (_, lay) in zip(results, plan, strict=True):
+        events, mask = _nonempty(np.asarray(events))
+        first_dc, last_dc = np.asarray(first_dc), np.asarray(last_dc)
+        if previous_last is not None:
+            block = 0
+            for c, comp in enumerate(lay.components):
+                at = int(np.count_nonzero(mask[: 64 * block]))
+                events[at] = _dc_event(int(first_dc[c]) - int(previous_last[c]), comp.table)
+                block += comp.factors[0] * comp.factors[1]
+        previous_last = last_dc
+        placed.append(_place(events, bit))
+        bit += placed[-1][2]
+    return _finish(placed)
 
 
 # --- static layout ----------------------------------------------------------------------
@@ -213,6 +264,10 @@ class Layout:
     table_ids: np.ndarray  # (blocks,) Huffman table of each block, scan order
     dc_source: np.ndarray  # (blocks,) block whose DC each block carries (dummies copy)
     dummy: np.ndarray  # (blocks,) libjpeg's zero-AC padding blocks
+
+    @property
+    def interleaved(self) -> bool:
+        return len(self.components) > 1
 
 
 def _scan_index(lay_mcus, comp: _Component, offset: int, blocks_per_mcu: int) -> np.ndarray:
@@ -342,6 +397,19 @@ def scan_coefficients(image, divisors, lay: Layout, xp):
     return quantized, xp.concatenate(dc_difference, axis=1).reshape(-1)
 
 
+def _edge_dcs(quantized, lay: Layout, xp):
+    """DC of the first and of the last block of each component, in scan order."""
+    per_mcu = sum(c.factors[0] * c.factors[1] for c in lay.components)
+    dc = quantized[:, 0][lay.dc_source]
+    first, last, offset = [], [], 0
+    for comp in lay.components:
+        count = comp.factors[0] * comp.factors[1]
+        first.append(offset)
+        last.append(dc.shape[0] - per_mcu + offset + count - 1)
+        offset += count
+    return dc[np.array(first)].astype(np.int32), dc[np.array(last)].astype(np.int32)
+
+
 def _zigzag(transposed):
     """Coefficients `(N, 64)` as `_fdct` lays them out -> zig-zag order."""
     return transposed[:, _ZIGZAG_TRANSPOSED]
@@ -354,9 +422,30 @@ def scan_events(image, divisors, lay: Layout, xp):
     return block_events(_zigzag(quantized), dc_difference, lay.table_ids, xp)
 
 
-@functools.lru_cache(maxsize=32)
-def compiled_scan_events(lay: Layout):
-    """`scan_events` as jitted XLA programs for this layout (cached).
+@functools.lru_cache(maxsize=64)
+def band_plan(height: int, width: int, factors: tuple, bands: int = 4):
+    """Horizontal bands of whole MCU rows: `[(first pixel row, layout of the band)]`.
+
+    Each band is laid out as an image of its own (all but the last have the same
+    size, so they share one compiled program); only DC prediction runs across bands.
+    """
+    lay = layout(height, width, factors)
+    mcu_rows = lay.mcus[0]
+    mcu_height = 8 * max(c.factors[1] for c in lay.components) if lay.interleaved else 8
+    per_band = -(-mcu_rows // bands)
+    plan = []
+    for first in range(0, mcu_rows, per_band):
+        row = first * mcu_height
+        rows = min((first + per_band) * mcu_height, height) - row
+        plan.append((row, layout(rows, width, factors)))
+    return plan
+
+
+@functools.lru_cache(maxsize=64)
+def compiled_band_events(lay: Layout):
+    """Jitted programs for one band of layout `lay`: `(padded image, divisors, first
+    row) -> (events in zig-zag order, first DCs, last DCs)` of the band's rows, DC
+    predicted from 0 (`pack_bands` fixes that).
 
     The events are computed in `_fdct`'s coefficient order and put into zig-zag order
     by a second program. Measured on CPU, that split is the fastest arrangement: with a
@@ -366,9 +455,16 @@ def compiled_scan_events(lay: Layout):
     import jax
     import jax.numpy as jnp
 
-    def events(image, divisors):
-        quantized, dc_difference = scan_coefficients(image, divisors, lay, jnp)
-        return block_events(quantized, dc_difference, lay.table_ids, jnp, order="fdct")
+    def events(image, divisors, row):
+        band = jax.lax.dynamic_slice_in_dim(image, row, lay.padded[0], axis=0)
+        quantized, dc_difference = scan_coefficients(band, divisors, lay, jnp)
+        coded = block_events(quantized, dc_difference, lay.table_ids, jnp, order="fdct")
+        return (coded, *_edge_dcs(quantized, lay, jnp))
 
     events, zigzag = jax.jit(events), jax.jit(_zigzag)
-    return lambda image, divisors: zigzag(events(image, divisors))
+
+    def run(image, divisors, row):
+        coded, first, last = events(image, divisors, row)
+        return zigzag(coded), first, last
+
+    return run

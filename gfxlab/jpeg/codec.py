@@ -161,11 +161,14 @@ def _scan(arr: np.ndarray, quality: int, lay: E.Layout, *, compiled: bool | None
     padded = E.pad_input(arr, lay)
     if compiled is None:
         compiled = arr.shape[0] * arr.shape[1] >= _COMPILE_FROM_PIXELS
-    if compiled:
-        events = np.asarray(E.compiled_scan_events(lay)(_aligned(padded), divisors))
-    else:
-        events = E.scan_events(padded, divisors, lay, np)
-    return E.pack_scan(events)
+    if not compiled:
+        return E.pack_scan(E.scan_events(padded, divisors, lay, np))
+    # In bands, so that NumPy packs one band while XLA computes the next.
+    padded = _aligned(padded)
+    factors = tuple(c.factors for c in lay.components) if lay.interleaved else ((1, 1),)
+    plan = E.band_plan(arr.shape[0], arr.shape[1], factors)
+    results = [E.compiled_band_events(band)(padded, divisors, row) for row, band in plan]
+    return E.pack_bands(results, plan)
 
 
 def _segment(marker: int, payload: bytes) -> bytes:
