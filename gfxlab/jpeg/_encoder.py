@@ -462,9 +462,12 @@ def compiled_band_events(lay: Layout):
         return (coded, *_edge_dcs(quantized, lay, jnp))
 
     events, zigzag = jax.jit(events), jax.jit(_zigzag)
+    rows = {}  # band offsets kept on the device: a host scalar is transferred per call
 
-    def run(image, divisors, row):
-        coded, first, last = events(image, divisors, row)
+    def run(image, divisors, row: int):
+        if row not in rows:
+            rows[row] = jax.device_put(np.int32(row))
+        coded, first, last = events(image, divisors, rows[row])
         return zigzag(coded), first, last
 
     return run
