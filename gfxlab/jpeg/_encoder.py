@@ -76,10 +76,10 @@ class _Slots:
         self.below_hi = np.array([(1 << max(p - 32, 0)) - 1 for p in positions], np.uint32)
 
 
-_ZIGZAG_RANK = np.argsort(ZIGZAG)  # zig-zag position of each natural index
+# `_fdct` leaves coefficient (v, u) at 8 * u + v; the zig-zag gather reads it from there.
+_ZIGZAG_TRANSPOSED = np.array([8 * (n % 8) + n // 8 for n in ZIGZAG.tolist()])
 _IN_ZIGZAG_ORDER = _Slots(np.arange(1, 64))
-# `_fdct`'s layout: slot 8 * u + v holds coefficient (v, u), natural index 8 * v + u.
-_IN_FDCT_ORDER = _Slots(_ZIGZAG_RANK[[8 * (j % 8) + j // 8 for j in range(1, 64)]])
+_IN_FDCT_ORDER = _Slots(np.argsort(_ZIGZAG_TRANSPOSED)[1:])  # zig-zag position per slot
 
 
 def _bit_length(x, xp):
@@ -343,10 +343,6 @@ def quantizers(tables) -> np.ndarray:
     (reciprocal, correction, shift), indexed like the transposed coefficients of
     `_fdct`, (horizontal, vertical) frequency."""
     return np.stack([np.stack(L.reciprocals(t)).swapaxes(1, 2) for t in tables]).astype(np.uint32)
-
-
-# `_fdct` leaves coefficient (v, u) at 8 * u + v; the zig-zag gather reads it from there.
-_ZIGZAG_TRANSPOSED = np.array([8 * (n % 8) + n // 8 for n in ZIGZAG.tolist()])
 
 
 def _fdct(blocks, xp):
