@@ -28,6 +28,8 @@ def as_float(x, name: str = "x") -> jax.Array:
     Integer and boolean inputs become the default float dtype (float32, or float64
     under `jax_enable_x64`).
     """
+    if x is None:
+        raise TypeError(f"`{name}` must be an array of numbers, got None")
     try:
         arr = jnp.asarray(x)
     except TypeError as err:
@@ -73,8 +75,14 @@ def check_shape(x: jax.Array, name: str, shape: tuple) -> None:
         raise ValueError(f"`{name}` must have shape ({pretty}), got shape {actual}")
 
 
-def static_int(value, name: str, *, minimum: int | None = None) -> int:
-    """A static (Python) integer argument, such as a radius, a degree or an image size."""
+def static_int(
+    value, name: str, *, minimum: int | None = None, maximum: int | None = None
+) -> int:
+    """A static (Python) integer argument, such as a radius, a degree or an image size.
+
+    `maximum` bounds sizes that allocate memory, so a huge value is refused before any
+    allocation rather than hanging or exhausting memory.
+    """
     if isinstance(value, jax.core.Tracer):
         raise TypeError(
             f"`{name}` sets an array size, so it must be a static Python int, not a traced "
@@ -94,6 +102,8 @@ def static_int(value, name: str, *, minimum: int | None = None) -> int:
     value = operator.index(value)
     if minimum is not None and value < minimum:
         raise ValueError(f"`{name}` must be >= {minimum}, got {value}")
+    if maximum is not None and value > maximum:
+        raise ValueError(f"`{name}` must be <= {maximum} (a documented size limit), got {value}")
     return value
 
 
@@ -118,6 +128,16 @@ def value_error_if(x, bad, message: str):
             raise ValueError(message)
         return x
     return eqx.error_if(x, bad, message)
+
+
+def check_finite(x, name: str):
+    """`x` unchanged, after checking that it holds no NaN or infinity (eagerly and under jit)."""
+    return value_error_if(x, ~jnp.isfinite(x), f"`{name}` must be finite (no NaN or inf)")
+
+
+def finite_float(x, name: str = "x") -> jax.Array:
+    """`as_float(x, name)` that also rejects NaN and infinite values."""
+    return check_finite(as_float(x, name), name)
 
 
 def check_rect(rect, name: str) -> jax.Array:
@@ -150,3 +170,9 @@ def safe_divide(numerator: jax.Array, denominator: jax.Array) -> jax.Array:
     small = jnp.abs(denominator) < eps
     sign = jnp.where(denominator < 0, -1.0, 1.0).astype(jnp.result_type(denominator, float))
     return numerator / jnp.where(small, sign * eps, denominator)
+
+
+def safe_normalize(x: jax.Array, axis: int = -1) -> jax.Array:
+    """`x / |x|` along `axis`; the zero vector stays zero with finite gradients."""
+    length = safe_norm(x, axis=axis, keepdims=True)
+    return x / jnp.where(length > 0, length, 1.0)

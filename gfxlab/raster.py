@@ -40,6 +40,7 @@ from ._checks import (
     static_shape,
     value_error_if,
 )
+from ._pixels import image_extent, index_to_pixel, pixel_centers, pixel_to_index
 
 __all__ = [
     "pixel_to_index",
@@ -82,43 +83,6 @@ _INT = jnp.int32
 # --------------------------------------------------------------------------------------
 # Pixel <-> array index
 # --------------------------------------------------------------------------------------
-
-
-def pixel_to_index(xy: Int[Array, "*batch 2"], shape: tuple[int, int]) -> Int[Array, "*batch 2"]:
-    """Pixel positions `(x, y)` (y up) to array indices `(row, col)` of an image of `shape`."""
-    height, _ = static_shape(shape)
-    xy = jnp.asarray(xy)
-    check_last_dim(xy, "xy", (2,), "pixel positions (x, y)")
-    return jnp.stack([height - 1 - xy[..., 1], xy[..., 0]], axis=-1)
-
-
-def index_to_pixel(rc: Int[Array, "*batch 2"], shape: tuple[int, int]) -> Int[Array, "*batch 2"]:
-    """Array indices `(row, col)` to pixel positions `(x, y)` (y up) of an image of `shape`."""
-    height, _ = static_shape(shape)
-    rc = jnp.asarray(rc)
-    check_last_dim(rc, "rc", (2,), "array indices (row, col)")
-    return jnp.stack([rc[..., 1], height - 1 - rc[..., 0]], axis=-1)
-
-
-def image_extent(shape: tuple[int, int]) -> tuple[float, float, float, float]:
-    """`extent=` for `plt.imshow(image, extent=...)` so that axes read pixel (x, y), y up.
-
-    With it, a point drawn at `(x, y)` lands on the centre of the pixel
-    `pixel_to_index((x, y), shape)`.
-    """
-    height, width = static_shape(shape)
-    return (-0.5, width - 0.5, -0.5, height - 0.5)
-
-
-def pixel_centers(shape: tuple[int, int], dtype=None) -> Float[Array, "H W 2"]:
-    """The centre `(x, y)` of every pixel of an `(H, W)` image, laid out like the image.
-
-    `pixel_centers(shape)[row, col] == (col, H - 1 - row)`.
-    """
-    height, width = static_shape(shape)
-    dtype = jnp.result_type(float) if dtype is None else dtype
-    cols, rows = jnp.meshgrid(jnp.arange(width), jnp.arange(height))
-    return jnp.stack([cols, height - 1 - rows], axis=-1).astype(dtype)
 
 
 def points_to_image(points: Int[Array, "*batch N 2"], shape: tuple[int, int]) -> Bool[Array, "H W"]:
