@@ -135,12 +135,12 @@ def leaf_bounds(params, bounds, leaves, trainable) -> list:
         )
         if bool(jnp.any(jnp.isnan(lo) | jnp.isnan(hi) | (hi <= lo))):
             raise FitError(
-                f"`bounds` of parameter leaf {i} must have lo < hi (no NaN), got {entry}"
+                f"`bounds` of `params` leaf {i} must have lo < hi (no NaN), got {entry}"
             )
         inside = (leaf > lo) & (leaf < hi)
         if not bool(jnp.all(inside)):
             raise FitError(
-                f"parameter leaf {i} starts outside its open `bounds` ({entry[0]}, {entry[1]}): "
+                f"`params` leaf {i} starts outside its open `bounds` ({entry[0]}, {entry[1]}): "
                 "start strictly inside the bounds"
             )
         out.append((lo, hi))

@@ -24,7 +24,8 @@ Example:
     >>> from gfxlab.fit import fit
     >>> x = jnp.linspace(0, 1, 20); y = 3 * x + 1
     >>> result = fit(lambda p: p["a"] * x + p["b"] - y, {"a": 0.0, "b": 0.0})
-    >>> result.params, result.loss_history[-1]
+    >>> round(float(result.params["a"]), 4), round(float(result.params["b"]), 4)
+    (3.0, 1.0)
 """
 
 from __future__ import annotations
@@ -196,7 +197,7 @@ def _setup(fn, params, fixed, bounds):
         raise FitError("`params` contains no floating-point arrays to fit (all fixed or non-float)")
     for i, (leaf, free) in enumerate(zip(leaves, trainable, strict=True)):
         if free and not bool(jnp.all(jnp.isfinite(leaf))):
-            raise FitError(f"parameter leaf {i} (shape {leaf.shape}) holds NaN or inf at the start")
+            raise FitError(f"`params` leaf {i} (shape {leaf.shape}) holds NaN or inf at the start")
     per_leaf = leaf_bounds(params, bounds, leaves, trainable)
     z = [
         (unbounded(v, *b) if b is not None else v) if t else None

@@ -175,7 +175,7 @@ def test_fit_under_a_transformation_says_it_is_a_driver(transform):
         ({"method": 3}, TypeError, "`method` must be one of"),
         ({"method": "Adam"}, FitError, "`method` must be one of"),
         ({"progress": "yes"}, TypeError, "`progress` must be True or False"),
-        ({"bounds": {"a": (1.0, 0.0)}}, FitError, "`bounds` of parameter leaf 0 must have lo < hi"),
+        ({"bounds": {"a": (1.0, 0.0)}}, FitError, "`bounds` of `params` leaf 0 must have lo < hi"),
         ({"bounds": {"a": (1.0, 2.0)}}, FitError, "starts outside its open `bounds`"),
         ({"bounds": {"b": (1.0, 2.0)}}, FitError, "`bounds` must be a pytree prefix of `params`"),
         ({"fixed": {"a": "yes"}}, TypeError, "`fixed` must hold True/False"),
