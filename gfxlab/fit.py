@@ -389,6 +389,24 @@ def _runner(problem, method, z, args, scalar, f_struct, options):
     return name, state, run, True
 
 
+def _drive(run, state, args, max_steps, chunk_size, solver_test, name, bar):
+    """Run compiled chunks until `max_steps` or convergence; check each for NaN/inf."""
+    history, steps_done, converged = [], 0, False
+    while steps_done < max_steps:
+        n = min(chunk_size, max_steps - steps_done)
+        state, losses, dones = run(state, args, n)
+        losses, dones = np.asarray(losses), np.asarray(dones)
+        if solver_test and dones.any():  # steps after convergence repeat the loss
+            losses, converged = losses[: int(np.argmax(dones)) + 1], True
+        _check_finite(losses, steps_done + 1, name)
+        history.append(losses)
+        steps_done += int(losses.shape[0])
+        bar.update(steps_done, float(losses[-1]), done=converged or steps_done >= max_steps)
+        if converged:
+            break
+    return state, history, converged
+
+
 def fit(
     fn: Callable[..., PyTree],
     params: PyTree,
@@ -468,31 +486,20 @@ def fit(
     _check_finite(initial_loss[None], 0, name)
     if chunk_size is None:
         chunk_size = max(1, max_steps // 20) if progress else max_steps
-    chunk_size = min(chunk_size, max_steps)
     bar = _Progress(progress, max_steps, name)
     bar.update(0, float(initial_loss))
-    history, steps_done, converged = [np.asarray(initial_loss)[None]], 0, False
-    while steps_done < max_steps:
-        n = min(chunk_size, max_steps - steps_done)
-        state, losses, dones = run(state, args, n)
-        losses, dones = np.asarray(losses), np.asarray(dones)
-        if solver_test and dones.any():  # steps after convergence repeat the loss
-            losses, converged = losses[: int(np.argmax(dones)) + 1], True
-        _check_finite(losses, steps_done + 1, name)
-        history.append(losses)
-        steps_done += int(losses.shape[0])
-        bar.update(steps_done, float(losses[-1]), done=converged or steps_done >= max_steps)
-        if converged:
-            break
-    best_z, _, best_step = state[-2]
-    loss_history = np.concatenate(history)
-    best_step = int(best_step) if np.isfinite(float(state[-2][1])) else 0
+    state, history, converged = _drive(
+        run, state, args, max_steps, min(chunk_size, max_steps), solver_test, name, bar
+    )
+    best_z, best_loss, best_step = state[-2]
+    loss_history = np.concatenate([np.asarray(initial_loss)[None], *history])
+    best_step = int(best_step) if np.isfinite(float(best_loss)) else 0
     if float(initial_loss) <= loss_history[best_step]:
         best_z, best_step = z, 0  # the start is as good as anything seen
     return FitResult(
         params=problem.params(best_z),
         loss_history=jnp.asarray(loss_history),
-        num_steps=steps_done,
+        num_steps=len(loss_history) - 1,
         converged=converged,
         method=name,
         best_step=best_step,
