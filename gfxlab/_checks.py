@@ -41,6 +41,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+
 class _DropCheckFailureLogs(logging.Filter):
     """JAX logs every exception raised in a host callback before re-raising it; a failed
     check would print its traceback twice. Drop that log for equinox check failures
@@ -83,9 +84,7 @@ def as_float(x, name: str = "x") -> jax.Array:
     try:
         arr = jnp.asarray(x)
     except TypeError as err:
-        raise TypeError(
-            f"`{name}` must be an array of numbers, got {type(x).__name__}"
-        ) from err
+        raise TypeError(f"`{name}` must be an array of numbers, got {type(x).__name__}") from err
     except OverflowError as err:
         raise ValueError(f"`{name}` holds a number too large for an array: {x!r:.60}") from err
     except ValueError as err:
@@ -136,9 +135,7 @@ def check_shape(x: jax.Array, name: str, shape: tuple) -> None:
         raise ValueError(f"`{name}` must have shape ({pretty}), got shape {actual}")
 
 
-def static_int(
-    value, name: str, *, minimum: int | None = None, maximum: int | None = None
-) -> int:
+def static_int(value, name: str, *, minimum: int | None = None, maximum: int | None = None) -> int:
     """A static (Python) integer argument, such as a radius, a degree or an image size.
 
     `maximum` bounds sizes that allocate memory, so a huge value is refused before any

@@ -134,9 +134,7 @@ def leaf_bounds(params, bounds, leaves, trainable) -> list:
             for k, v in enumerate(entry)
         )
         if bool(jnp.any(jnp.isnan(lo) | jnp.isnan(hi) | (hi <= lo))):
-            raise FitError(
-                f"`bounds` of `params` leaf {i} must have lo < hi (no NaN), got {entry}"
-            )
+            raise FitError(f"`bounds` of `params` leaf {i} must have lo < hi (no NaN), got {entry}")
         inside = (leaf > lo) & (leaf < hi)
         if not bool(jnp.all(inside)):
             raise FitError(

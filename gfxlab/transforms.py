@@ -531,15 +531,20 @@ def rotation_matrix(
     """A 3x3 rotation matrix from any parametrisation in `ROTATION_REPRESENTATIONS`:
     `"axis_angle"` (3), `"quaternion"` (4, `(w, x, y, z)`), `"6d"` (6) or `"matrix"`
     (a `(..., 3, 3)` rotation, checked and returned)."""
+    return _rotation_matrix(values, representation, "values")
+
+
+def _rotation_matrix(values, representation, name: str) -> jax.Array:
+    """`rotation_matrix` whose errors name the argument `name`."""
     if not isinstance(representation, str) or representation not in ROTATION_REPRESENTATIONS:
         raise ValueError(
             f"`representation` must be one of {sorted(ROTATION_REPRESENTATIONS)}, "
             f"got {representation!r:.40}"
         )
     if representation == "matrix":
-        return _check_rotation(values, "values")
+        return _check_rotation(values, name)
     convert = {"axis_angle": _from_axis_angle, "quaternion": _from_quaternion, "6d": _from_6d}
-    return convert[representation](values, "values")
+    return convert[representation](values, name)
 
 
 def rotation(

@@ -305,7 +305,8 @@ class Camera(eqx.Module):
             self.eye, self.target, self.up = _checked_pose(eye, target, up)
             return
         self.rotation = finite_float(rotation, "rotation")
-        frame = tf.rotation_matrix(self.rotation, representation).astype(eye.dtype)
+        frame = tf._rotation_matrix(self.rotation, representation, "rotation")
+        frame = frame.astype(eye.dtype)
         self.eye, self.target, self.up = eye, eye - frame[..., :, 2], frame[..., :, 1]
 
     @classmethod
@@ -322,7 +323,8 @@ class Camera(eqx.Module):
         """World to eye space (`look_at`, or the inverse of the rotation's frame)."""
         if self.rotation is None:
             return look_at(self.eye, self.target, self.up)
-        to_eye = jnp.swapaxes(tf.rotation_matrix(self.rotation, self.representation), -1, -2)
+        frame = tf._rotation_matrix(self.rotation, self.representation, "rotation")
+        to_eye = jnp.swapaxes(frame, -1, -2)
         eye = finite_float(self.eye, "eye")
         return tf._embed(to_eye, -jnp.einsum("...ij,...j->...i", to_eye, eye))
 

@@ -293,7 +293,7 @@ NAN, INF = float("nan"), float("inf")
         (
             lambda: vw.Camera.from_rotation([0, 0, 5.0], jnp.zeros(4), "quaternion"),
             ValueError,
-            "`q` must be a non-zero",
+            "`rotation` must be a non-zero quaternion",
         ),
         (
             lambda: vw.Camera.from_rotation([0, 0, 5.0], jnp.zeros(3), "euler"),
