@@ -1,15 +1,40 @@
 """Argument checks shared by every module.
 
-Shape and static-value problems raise `ValueError`/`TypeError` at trace time. Value
-problems (a degenerate window, a non-unit direction) raise `ValueError` at once when
-the value is concrete and go through `equinox.error_if` when it is traced, so the
-same call gives a clear error with and without `jax.jit`.
+**Static problems** (a wrong shape, a wrong type, `None` for an array, a size out of
+range) raise `TypeError`/`ValueError` at once, eagerly and at trace time alike, with a
+message that names the argument and says what was expected.
+
+**Value problems** (NaN or inf where a number is needed, a value out of its range, a
+degenerate window) are checked by `value_error_if` and the helpers built on it
+(`check_finite`, `finite_float`, `check_range`, `check_rect`):
+
+- called eagerly, or on values JAX knows at trace time: `ValueError(message)` at once;
+- inside `jax.jit` on traced values: the check goes through `equinox.error_if` and fires
+  when the compiled program runs. JAX wraps every exception raised while a compiled
+  program runs in its own `jax.errors.JaxRuntimeError` (an `INTERNAL: CpuCallback error`
+  with a long traceback); the same `message` is inside it, on a line of its own. Under
+  `equinox.filter_jit` the error is an `equinox.EquinoxRuntimeError` with that message;
+  under `checked_jit` (a drop-in `jax.jit`, exported as `gfxlab.jit`) it is the same
+  `ValueError(message)` as eagerly. `check_message(err)` recovers the message from any
+  of these exceptions.
+
+So the message is the same on every path; only the exception class that carries it
+depends on the `jit` used. (`EQX_ON_ERROR=nan` makes failing traced checks return NaN,
+`EQX_ON_ERROR=off` disables them; the default is `raise`.)
+
+**Size limits.** Integer sizes that allocate memory go through `static_int(...,
+maximum=)`; `check_allocation` refuses a request above `MAX_ELEMENTS` elements (1 GiB
+of float64) before anything is allocated.
 """
 
 from __future__ import annotations
 
+import functools
+import logging
+import math
 import operator
-from collections.abc import Sequence
+import re
+from collections.abc import Callable, Sequence
 
 import equinox as eqx
 import jax
@@ -17,26 +42,61 @@ import jax.numpy as jnp
 import numpy as np
 
 
+class _DropCheckFailureLogs(logging.Filter):
+    """JAX logs every exception raised in a host callback before re-raising it; a failed
+    check would print its traceback twice. Drop that log for equinox check failures
+    only (the exception itself still propagates with its message)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        exc = record.exc_info[1] if record.exc_info else None
+        return type(exc).__name__ != "_EquinoxRuntimeError"
+
+
+logging.getLogger("jax._src.callback").addFilter(_DropCheckFailureLogs())
+
+#: The most array elements a size argument may ask for (2**27: 1 GiB of float64).
+MAX_ELEMENTS = 2**27
+
+
 def is_traced(x) -> bool:
     """True when `x` (or any leaf of it) is a JAX tracer, i.e. its value is unknown."""
     return any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree_util.tree_leaves(x))
+
+
+def not_none(x, name: str):
+    """`x` unchanged, after checking it is not `None` (`TypeError` naming `name`)."""
+    if x is None:
+        raise TypeError(f"`{name}` is required, got None")
+    return x
 
 
 def as_float(x, name: str = "x") -> jax.Array:
     """`x` as a floating JAX array, keeping a floating input dtype.
 
     Integer and boolean inputs become the default float dtype (float32, or float64
-    under `jax_enable_x64`).
+    under `jax_enable_x64`). `None`, strings and other non-numbers raise `TypeError`
+    naming the argument; ragged nested lists raise `ValueError`.
     """
     if x is None:
         raise TypeError(f"`{name}` must be an array of numbers, got None")
+    if isinstance(x, str | bytes):
+        raise TypeError(f"`{name}` must be an array of numbers, got {type(x).__name__} {x!r:.40}")
     try:
         arr = jnp.asarray(x)
     except TypeError as err:
-        raise TypeError(f"`{name}` must be array-like of numbers, got {type(x).__name__}") from err
+        raise TypeError(f"`{name}` must be an array of numbers, got {type(x).__name__}") from err
+    except OverflowError as err:
+        raise ValueError(f"`{name}` holds a number too large for an array: {x!r:.60}") from err
+    except ValueError as err:
+        raise ValueError(
+            f"`{name}` must be a rectangular array of numbers (not a ragged list), got "
+            f"{type(x).__name__}"
+        ) from err
     if jnp.issubdtype(arr.dtype, jnp.complexfloating):
         raise TypeError(f"`{name}` must be real, got dtype {arr.dtype}")
     if not jnp.issubdtype(arr.dtype, jnp.floating):
+        if not (jnp.issubdtype(arr.dtype, jnp.integer) or arr.dtype == jnp.bool_):
+            raise TypeError(f"`{name}` must be an array of numbers, got dtype {arr.dtype}")
         arr = arr.astype(jnp.result_type(float))
     return arr
 
@@ -75,13 +135,12 @@ def check_shape(x: jax.Array, name: str, shape: tuple) -> None:
         raise ValueError(f"`{name}` must have shape ({pretty}), got shape {actual}")
 
 
-def static_int(
-    value, name: str, *, minimum: int | None = None, maximum: int | None = None
-) -> int:
+def static_int(value, name: str, *, minimum: int | None = None, maximum: int | None = None) -> int:
     """A static (Python) integer argument, such as a radius, a degree or an image size.
 
     `maximum` bounds sizes that allocate memory, so a huge value is refused before any
-    allocation rather than hanging or exhausting memory.
+    allocation rather than hanging or exhausting memory. `None` and non-integers raise
+    `TypeError`, values out of range `ValueError`; both name the argument.
     """
     if isinstance(value, jax.core.Tracer):
         raise TypeError(
@@ -89,7 +148,11 @@ def static_int(
             "value; mark it static (e.g. `jax.jit(f, static_argnames=...)`)"
         )
     if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        if isinstance(value, float | np.floating) and float(value).is_integer():
+        if (
+            isinstance(value, float | np.floating)
+            and math.isfinite(value)
+            and float(value).is_integer()
+        ):
             value = int(value)
         elif (
             isinstance(value, np.ndarray | jax.Array)
@@ -98,7 +161,7 @@ def static_int(
         ):
             value = int(value)
         else:
-            raise TypeError(f"`{name}` must be an int, got {value!r}")
+            raise TypeError(f"`{name}` must be an int, got {value!r:.60}")
     value = operator.index(value)
     if minimum is not None and value < minimum:
         raise ValueError(f"`{name}` must be >= {minimum}, got {value}")
@@ -108,22 +171,42 @@ def static_int(
 
 
 def static_shape(shape, name: str = "shape") -> tuple[int, int]:
-    """An image shape `(H, W)` (extra trailing entries such as channels are ignored)."""
-    if not isinstance(shape, Sequence) or len(shape) < 2:
-        raise ValueError(f"`{name}` must be an image shape (H, W), got {shape!r}")
-    return static_int(shape[0], f"{name}[0]", minimum=1), static_int(
-        shape[1], f"{name}[1]", minimum=1
-    )
+    """An image shape `(H, W)` (extra trailing entries such as channels are ignored).
+
+    Each side is at most `MAX_ELEMENTS`, and so is `H * W`.
+    """
+    if not isinstance(shape, Sequence) or isinstance(shape, str) or len(shape) < 2:
+        raise ValueError(f"`{name}` must be an image shape (H, W), got {shape!r:.60}")
+    height = static_int(shape[0], f"{name}[0]", minimum=1, maximum=MAX_ELEMENTS)
+    width = static_int(shape[1], f"{name}[1]", minimum=1, maximum=MAX_ELEMENTS)
+    check_allocation(height * width, name)
+    return height, width
+
+
+def check_allocation(elements: int, name: str, *, limit: int = MAX_ELEMENTS) -> int:
+    """Refuse a request for more than `limit` array elements (default `MAX_ELEMENTS`).
+
+    Call it with the number of elements a size argument `name` makes a function
+    allocate, before allocating. Returns `elements`.
+    """
+    if elements > limit:
+        raise ValueError(
+            f"`{name}` asks for {elements} array elements, more than the limit of {limit} "
+            "(gfxlab._checks.MAX_ELEMENTS)"
+        )
+    return elements
 
 
 def value_error_if(x, bad, message: str):
     """Raise `ValueError(message)` if `bad` holds anywhere.
 
-    Concrete values raise at once; traced values go through `equinox.error_if`, which
-    raises at run time under `jit`. Returns `x` (which must be used, so that the check
-    is not dead code under `jit`).
+    A `bad` whose value is known (eagerly, or a constant at trace time) raises at once.
+    A traced `bad` goes through `equinox.error_if`, which raises when the compiled
+    program runs (see the module docstring for the exception that carries `message`
+    under each kind of `jit`). Returns `x`, which must be used, so that the check is not
+    dead code under `jit`.
     """
-    if not is_traced(bad) and not is_traced(x):
+    if not is_traced(bad):
         if bool(np.any(np.asarray(bad))):
             raise ValueError(message)
         return x
@@ -132,7 +215,9 @@ def value_error_if(x, bad, message: str):
 
 def check_finite(x, name: str):
     """`x` unchanged, after checking that it holds no NaN or infinity (eagerly and under jit)."""
-    return value_error_if(x, ~jnp.isfinite(x), f"`{name}` must be finite (no NaN or inf)")
+    with jax.ensure_compile_time_eval():  # a constant is checked at trace time
+        bad = ~jnp.isfinite(x)
+    return value_error_if(x, bad, f"`{name}` must be finite (no NaN or inf)")
 
 
 def finite_float(x, name: str = "x") -> jax.Array:
@@ -140,11 +225,55 @@ def finite_float(x, name: str = "x") -> jax.Array:
     return check_finite(as_float(x, name), name)
 
 
+def _bound_text(minimum, maximum, lower_open, upper_open) -> str:
+    if minimum is not None and maximum is not None:
+        left, right = "(" if lower_open else "[", ")" if upper_open else "]"
+        return f"in {left}{minimum:g}, {maximum:g}{right}"
+    if minimum is not None:
+        return f"{'>' if lower_open else '>='} {minimum:g}"
+    return f"{'<' if upper_open else '<='} {maximum:g}"
+
+
+def check_range(
+    x,
+    name: str,
+    *,
+    minimum: float | None = None,
+    maximum: float | None = None,
+    lower_open: bool = False,
+    upper_open: bool = False,
+    what: str = "",
+):
+    """`x` unchanged, after checking `minimum <= x <= maximum` everywhere (eagerly and
+    under jit). `lower_open`/`upper_open` make a bound strict; NaN always fails.
+
+    The message names the argument and the interval, e.g. "`sigma` must be > 0".
+    """
+    if minimum is None and maximum is None:
+        raise TypeError("check_range needs `minimum` or `maximum`")
+    with jax.ensure_compile_time_eval():  # a constant is checked at trace time
+        ok = ~jnp.isnan(x)
+        if minimum is not None:
+            ok = ok & ((x > minimum) if lower_open else (x >= minimum))
+        if maximum is not None:
+            ok = ok & ((x < maximum) if upper_open else (x <= maximum))
+    hint = f" ({what})" if what else ""
+    text = _bound_text(minimum, maximum, lower_open, upper_open)
+    return value_error_if(x, ~ok, f"`{name}` must be {text}{hint}")
+
+
+def positive(x, name: str, what: str = ""):
+    """`x` unchanged after checking it is finite and > 0 everywhere (eagerly and under jit)."""
+    x = check_finite(x, name)
+    return check_range(x, name, minimum=0, lower_open=True, what=what)
+
+
 def check_rect(rect, name: str) -> jax.Array:
-    """A rectangle `(xmin, ymin, xmax, ymax)` with positive width and height."""
-    rect = as_float(rect, name)
+    """A finite rectangle `(xmin, ymin, xmax, ymax)` with positive width and height."""
+    rect = finite_float(rect, name)
     check_shape(rect, name, (4,))
-    bad = (rect[2] <= rect[0]) | (rect[3] <= rect[1])
+    with jax.ensure_compile_time_eval():
+        bad = (rect[2] <= rect[0]) | (rect[3] <= rect[1])
     return value_error_if(
         rect,
         bad,
@@ -153,11 +282,60 @@ def check_rect(rect, name: str) -> jax.Array:
     )
 
 
+# The markers around a check's message in the runtime errors of `equinox.error_if`.
+_EQX_MARKERS = ("_EquinoxRuntimeError: ", "equinox.EquinoxRuntimeError: ")
+_EQX_FOOTER = re.compile(r"\n\s*\n\s*(-{5,}|\Z)")
+
+
+def check_message(err: BaseException) -> str | None:
+    """The message of a failed check carried by `err`, or None if `err` carries none.
+
+    Works for the `ValueError` raised eagerly, JAX's `JaxRuntimeError` under `jax.jit`
+    and `equinox.EquinoxRuntimeError` under `equinox.filter_jit`.
+    """
+    text = str(err)
+    for marker in _EQX_MARKERS:
+        start = text.rfind(marker)
+        if start >= 0:
+            body = text[start + len(marker) :]
+            end = _EQX_FOOTER.search(body)
+            return (body[: end.start()] if end else body).strip()
+    if type(err).__name__ == "EquinoxTracetimeError":
+        return text.strip()
+    if isinstance(err, ValueError | TypeError) and not isinstance(err, jax.errors.JaxRuntimeError):
+        return text
+    return None
+
+
+def checked_jit(fn: Callable | None = None, **jit_kwargs) -> Callable:
+    """`jax.jit` whose failed value checks raise `ValueError(message)`, as they do eagerly.
+
+    A drop-in replacement for `jax.jit` (same keyword arguments; usable as a decorator
+    with or without them). Errors other than gfxlab's checks pass through unchanged.
+    """
+    if fn is None:
+        return functools.partial(checked_jit, **jit_kwargs)
+    compiled = jax.jit(fn, **jit_kwargs)
+
+    @functools.wraps(fn)
+    def call(*args, **kwargs):
+        try:
+            return compiled(*args, **kwargs)
+        except (jax.errors.JaxRuntimeError, RuntimeError) as err:
+            message = check_message(err)
+            if message is None:
+                raise
+            raise ValueError(message) from None
+
+    call.lower = compiled.lower
+    return call
+
+
 def safe_norm(x: jax.Array, axis: int = -1, keepdims: bool = False) -> jax.Array:
     """Euclidean norm whose gradient is zero, not NaN, at the zero vector."""
     sq = jnp.sum(x * x, axis=axis, keepdims=keepdims)
-    positive = sq > 0
-    return jnp.where(positive, jnp.sqrt(jnp.where(positive, sq, 1.0)), 0.0)
+    positive_sq = sq > 0
+    return jnp.where(positive_sq, jnp.sqrt(jnp.where(positive_sq, sq, 1.0)), 0.0)
 
 
 def safe_divide(numerator: jax.Array, denominator: jax.Array) -> jax.Array:

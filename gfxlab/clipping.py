@@ -45,7 +45,26 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float, Int
 
-from ._checks import as_float, check_rect, check_shape, common_float, static_int, value_error_if
+from ._checks import (
+    check_finite,
+    check_rect,
+    check_shape,
+    common_float,
+    finite_float,
+    static_int,
+    value_error_if,
+)
+
+#: The largest output buffer `sutherland_hodgman` accepts (`max_vertices`).
+MAX_VERTICES = 1_000_000
+
+
+def _finite(*arrays, names):
+    """Floats of one dtype, each checked finite (NaN/inf name the argument)."""
+    return [
+        check_finite(a, n) for a, n in zip(common_float(*arrays, names=names), names, strict=True)
+    ]
+
 
 __all__ = [
     "LEFT",
@@ -61,6 +80,7 @@ __all__ = [
     "liang_barsky",
     "sutherland_hodgman",
     "polygon_area",
+    "MAX_VERTICES",
 ]
 
 LEFT = 0b1000
@@ -97,7 +117,7 @@ def _window(window) -> jax.Array:
 
 
 def _check_segments(segments) -> jax.Array:
-    segments = as_float(segments, "segments")
+    segments = finite_float(segments, "segments")
     check_shape(segments, "segments", (..., 2, 2))
     return segments
 
@@ -119,7 +139,7 @@ def outcode(points: Float[Array, "*batch 2"], window: Float[Array, "4"]) -> Int[
 
     **Returns:** int32 codes `(...)`; 0 inside or on the window's boundary.
     """
-    points, window = common_float(points, window, names=("points", "window"))
+    points, window = _finite(points, window, names=("points", "window"))
     check_shape(points, "points", (..., 2))
     window = _window(window)
     return _codes(points[..., 0], points[..., 1], window).astype(jnp.int32)
@@ -200,7 +220,7 @@ def cohen_sutherland(
     `(...)` boolean: `False` for a rejected segment. A trivially accepted segment comes
     back unchanged. Differentiable in the segments and the window.
     """
-    segments, window = common_float(segments, window, names=("segments", "window"))
+    segments, window = _finite(segments, window, names=("segments", "window"))
     segments = _check_segments(segments)
     return _cohen_sutherland(segments, _window(window))
 
@@ -227,7 +247,7 @@ def cohen_sutherland_steps(
     0; otherwise move the outside endpoint to the first edge (top, bottom, right,
     left) its code names, and repeat. Same arguments and results as `cohen_sutherland`.
     """
-    segments, window = common_float(segments, window, names=("segments", "window"))
+    segments, window = _finite(segments, window, names=("segments", "window"))
     segments = _check_segments(segments)
     return _cohen_sutherland_steps(segments, _window(window))
 
@@ -271,7 +291,7 @@ def cohen_sutherland_trace(segment, window) -> list[dict]:
     (`"top"`, `"bottom"`, `"right"`, `"left"` or None), `"clipped_point"` (`"p0"`,
     `"p1"` or None) and `"new_point"` (a tuple, or None).
     """
-    segment, window = common_float(segment, window, names=("segment", "window"))
+    segment, window = _finite(segment, window, names=("segment", "window"))
     check_shape(segment, "segment", (2, 2))
     w = _window(window)
     if isinstance(segment, jax.core.Tracer) or isinstance(w, jax.core.Tracer):
@@ -330,7 +350,7 @@ def liang_barsky(
 
     **Returns:** `(clipped, visible)` as `cohen_sutherland` (NaN where not visible).
     """
-    segments, window = common_float(segments, window, names=("segments", "window"))
+    segments, window = _finite(segments, window, names=("segments", "window"))
     segments = _check_segments(segments)
     return _liang_barsky(segments, _window(window))
 
@@ -403,7 +423,7 @@ def sutherland_hodgman(
     in order (invalid rows are 0), and the `(M,)` mask. No valid vertex when the
     polygon misses the window.
     """
-    polygon, window = common_float(polygon, window, names=("polygon", "window"))
+    polygon, window = _finite(polygon, window, names=("polygon", "window"))
     check_shape(polygon, "polygon", (None, 2))
     if polygon.shape[0] < 3:
         raise ValueError(
@@ -411,12 +431,15 @@ def sutherland_hodgman(
         )
     w = _window(window)
     count_in = polygon.shape[0]
-    size = 2 * count_in + 8 if max_vertices is None else static_int(
-        max_vertices, "max_vertices", minimum=3
+    size = (
+        2 * count_in + 8
+        if max_vertices is None
+        else static_int(max_vertices, "max_vertices", minimum=3, maximum=MAX_VERTICES)
     )
     points, count, needed = _sutherland_hodgman(polygon, w, size)
     points = value_error_if(
-        points, needed > size,
+        points,
+        needed > size,
         f"the clipped polygon needs more than max_vertices={size} vertices; pass a larger "
         "`max_vertices`",
     )
@@ -449,8 +472,12 @@ def _sutherland_hodgman(polygon, w, size):
 
         return inside, cross
 
-    stages = [vertical(w[0], True), vertical(w[2], False), horizontal(w[1], True),
-              horizontal(w[3], False)]
+    stages = [
+        vertical(w[0], True),
+        vertical(w[2], False),
+        horizontal(w[1], True),
+        horizontal(w[3], False),
+    ]
     points = jnp.concatenate([polygon, jnp.zeros((max(size - count_in, 0), 2), polygon.dtype)])
     count = jnp.asarray(count_in)
     needed = jnp.asarray(0)
@@ -473,12 +500,17 @@ def polygon_area(
 
     **Returns:** the area `(...)`.
     """
-    vertices = as_float(vertices, "vertices")
+    vertices = finite_float(vertices, "vertices")
     check_shape(vertices, "vertices", (..., None, 2))
     size = vertices.shape[-2]
     if valid is None:
         valid = jnp.ones(vertices.shape[:-1], bool)
-    valid = jnp.asarray(valid)
+    try:
+        valid = jnp.asarray(valid)
+    except (TypeError, ValueError) as err:
+        raise TypeError(f"`valid` must be a boolean mask, got {type(valid).__name__}") from err
+    if valid.dtype != jnp.bool_:
+        raise TypeError(f"`valid` must be a boolean mask, got dtype {valid.dtype}")
     check_shape(valid, "valid", (*vertices.shape[:-1],))
     count = jnp.sum(valid, axis=-1, keepdims=True)
     idx = jnp.arange(size)
@@ -486,4 +518,3 @@ def polygon_area(
     following = jnp.take_along_axis(vertices, nxt[..., None], axis=-2)
     cross = vertices[..., 0] * following[..., 1] - following[..., 0] * vertices[..., 1]
     return 0.5 * jnp.abs(jnp.sum(jnp.where(valid, cross, 0.0), axis=-1))
-

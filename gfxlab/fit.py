@@ -2,19 +2,36 @@
 
 One entry point, `fit`, for every lab: least squares with Gauss-Newton or
 Levenberg-Marquardt (optimistix), general minimisation with BFGS (optimistix), and
-plain or Adam gradient descent (optax). It returns the fitted parameters together
+plain or Adam gradient descent (optax). It returns the best parameters it saw together
 with the loss after every step, so a lab can plot convergence.
+
+**What `fn` returns, for every method.** A 0-d (scalar) output is a *loss* and is
+minimised as it is. Any other output (an array, or a pytree of arrays) is a vector of
+*residuals* `r` and the loss is `sum(r**2)`. Least-squares methods need residuals;
+BFGS, Adam and gradient descent minimise the loss either way, and `loss_history` is this
+loss for every method.
+
+**A driver, not a traceable function.** `fit` runs a Python loop over compiled chunks
+of steps (to report progress, stop at convergence and catch NaN early), so it is called
+eagerly, not inside `jax.jit`, `jax.grad` or `jax.vmap` (it raises a clear `TypeError`
+there). The compiled steps are cached: fitting the same `fn` again with parameters and
+arguments of the same structure, shapes and dtypes does not recompile. To differentiate
+through a solve, call `optimistix.least_squares`/`optimistix.minimise` directly (they are
+traceable).
 
 Example:
     >>> import jax.numpy as jnp
     >>> from gfxlab.fit import fit
     >>> x = jnp.linspace(0, 1, 20); y = 3 * x + 1
     >>> result = fit(lambda p: p["a"] * x + p["b"] - y, {"a": 0.0, "b": 0.0})
-    >>> result.params, result.loss_history[-1]
+    >>> round(float(result.params["a"]), 4), round(float(result.params["b"]), 4)
+    (3.0, 1.0)
 """
 
 from __future__ import annotations
 
+import functools
+import math
 import time
 from collections.abc import Callable
 from typing import Any
@@ -22,11 +39,15 @@ from typing import Any
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 import optax
 import optimistix as optx
 from jaxtyping import Array, Float, PyTree
 
-__all__ = ["fit", "FitResult", "FitError", "METHODS"]
+from ._checks import is_traced, static_int
+from ._fit_params import FitError, bounded, fixed_mask, leaf_bounds, unbounded
+
+__all__ = ["fit", "FitResult", "FitError", "METHODS", "MAX_STEPS"]
 
 #: Method names accepted by `fit`, and whether each needs a residual vector.
 METHODS = {
@@ -37,9 +58,8 @@ METHODS = {
     "gradient_descent": False,
 }
 
-
-class FitError(ValueError):
-    """The objective produced NaN/inf, or the fit was set up wrongly."""
+#: The most steps one `fit` may take (its loss history is kept in memory).
+MAX_STEPS = 10_000_000
 
 
 class FitResult(eqx.Module):
@@ -47,13 +67,15 @@ class FitResult(eqx.Module):
 
     **Fields:**
 
-    - `params`: the fitted parameters (same pytree structure as the start).
+    - `params`: the best parameters seen (lowest loss, the start included), with the
+      structure of the start; fixed leaves are returned unchanged.
     - `loss_history`: `(num_steps + 1,)` the loss at the start and after every step.
       The loss is `sum(residuals**2)` for a residual function, or the returned scalar.
     - `num_steps`: steps taken (fewer than `max_steps` if the solver converged).
     - `converged`: whether the solver's own stopping test was met (always False for
       the fixed-step optax methods, which run all `max_steps`).
     - `method`: the method used.
+    - `best_step`: the step whose parameters `params` are (0 is the start).
     """
 
     params: PyTree
@@ -61,11 +83,99 @@ class FitResult(eqx.Module):
     num_steps: int
     converged: bool
     method: str = eqx.field(static=True)
+    best_step: int = 0
 
     @property
     def loss(self) -> float:
-        """The final loss."""
+        """The loss of the returned `params` (the lowest in `loss_history`)."""
+        return float(self.loss_history[self.best_step])
+
+    @property
+    def final_loss(self) -> float:
+        """The loss after the last step (may be above `loss` if the fit overshot)."""
         return float(self.loss_history[-1])
+
+
+# ----------------------------------------------------------------------------- checks
+
+
+def _positive_number(value, name: str, *, allow_zero: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.number):
+        if not (isinstance(value, np.ndarray | jax.Array) and np.ndim(value) == 0):
+            raise TypeError(f"`{name}` must be a number, got {value!r:.60}")
+        if is_traced(value):
+            raise TypeError(f"`{name}` must be a concrete number, not a traced value")
+    value = float(value)
+    if not math.isfinite(value) or value < 0 or (value == 0 and not allow_zero):
+        bound = ">= 0" if allow_zero else "> 0"
+        raise FitError(f"`{name}` must be a finite number {bound}, got {value}")
+    return value
+
+
+def _count(value, name: str, *, optional: bool = False) -> int | None:
+    if value is None and optional:
+        return None
+    try:
+        return static_int(value, name, minimum=1, maximum=MAX_STEPS)
+    except ValueError as err:
+        raise FitError(str(err)) from None
+
+
+def _check_call(fn, params, args, method, progress) -> None:
+    if not callable(fn):
+        raise TypeError(
+            f"`fn` must be callable (params, *args) -> residuals or loss, got {fn!r:.60}"
+        )
+    if params is None:
+        raise TypeError("`params` must be a pytree of arrays to fit, got None")
+    if not isinstance(args, tuple):
+        raise FitError(f"`args` must be a tuple of extra arguments, got {type(args).__name__}")
+    if not isinstance(progress, bool):
+        raise TypeError(f"`progress` must be True or False, got {progress!r:.60}")
+    if is_traced((params, args)):
+        raise TypeError(
+            "`fit` is a driver that runs compiled steps in a Python loop; call it outside "
+            "`jax.jit`, `jax.grad` and `jax.vmap` (to differentiate through a solve use "
+            "`optimistix.least_squares` or `optimistix.minimise`, which are traceable)"
+        )
+    if isinstance(method, str):
+        if method not in METHODS:
+            raise FitError(
+                f"`method` must be one of {sorted(METHODS)} (or an optimistix solver or "
+                f"optax transformation), got {method!r}"
+            )
+    elif method is not None and not isinstance(
+        method,
+        optx.AbstractLeastSquaresSolver | optx.AbstractMinimiser | optax.GradientTransformation,
+    ):
+        raise TypeError(
+            f"`method` must be one of {sorted(METHODS)}, an optimistix least-squares "
+            f"solver or minimiser, or an optax GradientTransformation, got {method!r:.80}"
+        )
+
+
+# -------------------------------------------------------------------- the problem
+
+
+class _Problem(eqx.Module):
+    """Everything the compiled steps need besides the state: hashed by `filter_jit`, so
+    a refit of the same `fn` with the same structure reuses the compiled code."""
+
+    fn: Callable
+    static: PyTree  # the fixed leaves and non-array parts of `params`
+    bounds: PyTree  # per trainable leaf: None or (lo, hi)
+
+    def params(self, z):
+        values = jax.tree_util.tree_map(
+            lambda v, b: v if b is None else bounded(v, *b), z, self.bounds
+        )
+        return eqx.combine(values, self.static)
+
+    def output(self, z, args):
+        return self.fn(self.params(z), *args)
+
+    def loss(self, z, args):
+        return _loss_from_output(self.output(z, args))
 
 
 def _loss_from_output(out: PyTree) -> jax.Array:
@@ -75,20 +185,135 @@ def _loss_from_output(out: PyTree) -> jax.Array:
     return sum(jnp.sum(jnp.square(leaf)) for leaf in leaves)
 
 
-def _is_scalar_output(out_struct: PyTree) -> bool:
-    leaves = jax.tree_util.tree_leaves(out_struct)
-    return len(leaves) == 1 and leaves[0].shape == ()
+def _setup(fn, params, fixed, bounds):
+    params = jax.tree_util.tree_map(
+        lambda x: jnp.asarray(x, dtype=jnp.result_type(float)) if isinstance(x, float) else x,
+        params,
+    )
+    leaves, treedef = jax.tree_util.tree_flatten(params)
+    mask = fixed_mask(params, fixed)
+    trainable = [eqx.is_inexact_array(v) and not f for v, f in zip(leaves, mask, strict=True)]
+    if not any(trainable):
+        raise FitError("`params` contains no floating-point arrays to fit (all fixed or non-float)")
+    for i, (leaf, free) in enumerate(zip(leaves, trainable, strict=True)):
+        if free and not bool(jnp.all(jnp.isfinite(leaf))):
+            raise FitError(f"`params` leaf {i} (shape {leaf.shape}) holds NaN or inf at the start")
+    per_leaf = leaf_bounds(params, bounds, leaves, trainable)
+    z = [
+        (unbounded(v, *b) if b is not None else v) if t else None
+        for v, t, b in zip(leaves, trainable, per_leaf, strict=True)
+    ]
+    static = [None if t else v for v, t in zip(leaves, trainable, strict=True)]
+    unflat = functools.partial(jax.tree_util.tree_unflatten, treedef)
+    problem = _Problem(fn=fn, static=unflat(static), bounds=unflat(per_leaf))
+    return problem, unflat(z)
 
 
-def _check_finite(losses, start_step: int, method: str) -> None:
-    bad = ~jnp.isfinite(losses)
-    if bool(jnp.any(bad)):
-        step = start_step + int(jnp.argmax(bad))
+@eqx.filter_jit
+def _describe(problem, z, args):
+    out = problem.output(z, args)
+    leaves = jax.tree_util.tree_leaves(out)
+    if not leaves or not all(eqx.is_array(v) for v in leaves):
         raise FitError(
-            f"the objective returned NaN or inf at step {step} of the {method!r} fit; "
-            "check the residual function for divisions by zero, sqrt/log of negative "
-            "values, or a learning rate that is too large"
+            "`fn` must return an array (residuals or a scalar loss) or a pytree of arrays"
         )
+    scalar = len(leaves) == 1 and leaves[0].shape == ()
+    struct = jax.tree_util.tree_map(lambda v: jax.ShapeDtypeStruct(v.shape, v.dtype), out)
+    return _loss_from_output(out), scalar, struct
+
+
+# ------------------------------------------------------------------ compiled steps
+
+
+@functools.lru_cache(maxsize=64)
+def _named_optax(method: str, learning_rate: float) -> optax.GradientTransformation:
+    # Cached, so the same name and rate give the same object and reuse compiled steps.
+    return optax.adam(learning_rate) if method == "adam" else optax.sgd(learning_rate)
+
+
+@functools.lru_cache(maxsize=64)
+def _named_optimistix(method: str, rtol: float, atol: float):
+    if method == "levenberg_marquardt":
+        return optx.LevenbergMarquardt(rtol=rtol, atol=atol)
+    if method == "gauss_newton":
+        return optx.GaussNewton(rtol=rtol, atol=atol)
+    return optx.BFGS(rtol=rtol, atol=atol)
+
+
+def _keep_best(best, z, loss, step):
+    best_z, best_loss, best_step = best
+    better = loss < best_loss  # NaN is never better
+    best_z = jax.tree_util.tree_map(lambda a, b: jnp.where(better, b, a), best_z, z)
+    return best_z, jnp.where(better, loss, best_loss), jnp.where(better, step, best_step)
+
+
+@eqx.filter_jit
+def _optax_chunk(problem, optimizer, state, args, n):
+    """`n` optax steps. The loss of each iterate comes from the same evaluation as its
+    gradient; one more evaluation gives the loss after the last step."""
+    value_and_grad = jax.value_and_grad(problem.loss)
+
+    def step(carry, _):
+        z, opt_state, best, i = carry
+        loss, grads = value_and_grad(z, args)
+        best = _keep_best(best, z, loss, i)
+        updates, opt_state = optimizer.update(grads, opt_state, z)
+        return (optax.apply_updates(z, updates), opt_state, best, i + 1), loss
+
+    (z, opt_state, best, i), losses = jax.lax.scan(step, state, None, length=n)
+    last = problem.loss(z, args)
+    best = _keep_best(best, z, last, i)
+    losses = jnp.concatenate([losses[1:], last[None]])
+    return (z, opt_state, best, i), losses, jnp.zeros(losses.shape, bool)
+
+
+def _optimistix_fn(problem, least_squares: bool, scalar: bool):
+    def fn(z, args):
+        if least_squares:
+            return problem.output(z, args), None
+        out = problem.output(z, args)
+        return (out if scalar else _loss_from_output(out)), None
+
+    return fn
+
+
+def _solver_state(problem, solver, z, args, f_struct, least_squares, scalar):
+    fn = _optimistix_fn(problem, least_squares, scalar)
+    return fn, solver.init(fn, z, args, {}, f_struct, None, frozenset())
+
+
+@eqx.filter_jit
+def _optimistix_init(problem, solver, z, args, f_struct, least_squares, scalar):
+    _, state = _solver_state(problem, solver, z, args, f_struct, least_squares, scalar)
+    return eqx.filter(state, eqx.is_array)
+
+
+@eqx.filter_jit
+def _optimistix_chunk(problem, solver, state, args, f_struct, least_squares, scalar, n):
+    """`n` optimistix steps, frozen once the solver's stopping test holds. The solver
+    state's static parts (jaxprs) are rebuilt here, so only its arrays are carried."""
+    z0, s_arrays0, done0, best0, i0 = state
+    fn, fresh = _solver_state(problem, solver, z0, args, f_struct, least_squares, scalar)
+    s_static = eqx.filter(fresh, eqx.is_array, inverse=True)
+    tags, options = frozenset(), {}
+
+    def step(carry, _):
+        z, s_arrays, done, best, i = carry
+        s = eqx.combine(s_arrays, s_static)
+        z_new, s_new, _ = solver.step(fn, z, args, options, s, tags)
+        keep = lambda a, b: jnp.where(done, a, b)  # noqa: E731
+        z = jax.tree_util.tree_map(keep, z, z_new)
+        s_arrays = jax.tree_util.tree_map(keep, s_arrays, eqx.filter(s_new, eqx.is_array))
+        finished, _ = solver.terminate(fn, z, args, options, eqx.combine(s_arrays, s_static), tags)
+        loss = problem.loss(z, args)
+        best = _keep_best(best, z, loss, jnp.where(done, best[2], i + 1))
+        return (z, s_arrays, done | finished, best, i + 1), (loss, done | finished)
+
+    carry, (losses, dones) = jax.lax.scan(step, (z0, s_arrays0, done0, best0, i0), None, length=n)
+    return carry, losses, dones
+
+
+# ----------------------------------------------------------------------- the driver
 
 
 class _Progress:
@@ -123,30 +348,63 @@ class _Progress:
         print("\r" + text, end="\n" if done else "", flush=True)
 
 
-def _prepare(fn, params, args, method):
-    if isinstance(method, str):
-        if method not in METHODS:
-            raise FitError(
-                f"`method` must be one of {sorted(METHODS)} (or an optimistix solver or "
-                f"optax transformation), got {method!r}"
-            )
-    # Python floats are parameters too; ints, bools and strings stay fixed.
-    params = jax.tree_util.tree_map(
-        lambda x: jnp.asarray(x, dtype=jnp.result_type(float)) if isinstance(x, float) else x,
-        params,
-    )
-    dynamic, static = eqx.partition(params, eqx.is_inexact_array)
-    if not jax.tree_util.tree_leaves(dynamic):
-        raise FitError("`params` contains no floating-point arrays to fit")
+def _check_finite(losses, start_step: int, method: str) -> None:
+    bad = ~np.isfinite(np.asarray(losses))
+    if bad.any():
+        raise FitError(
+            f"the objective returned NaN or inf at step {start_step + int(np.argmax(bad))} of "
+            f"the {method!r} fit; check the residual function for divisions by zero, sqrt/log "
+            "of negative values, or a learning rate that is too large"
+        )
 
-    def objective(dyn, fn_args):
-        return fn(eqx.combine(dyn, static), *fn_args)
 
-    try:
-        out_struct = jax.eval_shape(objective, dynamic, args)
-    except Exception as err:  # pragma: no cover - re-raised with context
-        raise FitError(f"calling the objective with the initial parameters failed: {err}") from err
-    return dynamic, static, objective, out_struct
+def _runner(problem, method, z, args, scalar, f_struct, options):
+    """(name, initial state, run(state, n) -> (state, losses, dones), uses_solver_test)."""
+    learning_rate, rtol, atol = options
+    if method is None:
+        method = "bfgs" if scalar else "levenberg_marquardt"
+    name = method if isinstance(method, str) else type(method).__name__
+    if isinstance(method, optax.GradientTransformation) or method in ("adam", "gradient_descent"):
+        optimizer = method if not isinstance(method, str) else _named_optax(method, learning_rate)
+        best = (z, jnp.asarray(jnp.inf), jnp.asarray(0))
+        state = (z, optimizer.init(z), best, jnp.asarray(0))
+        return name, state, functools.partial(_optax_chunk, problem, optimizer), False
+    solver = method if not isinstance(method, str) else _named_optimistix(method, rtol, atol)
+    least_squares = isinstance(solver, optx.AbstractLeastSquaresSolver)
+    if least_squares and scalar:
+        raise FitError(
+            f"method {name!r} is a least-squares solver: `fn` must return residuals "
+            "(an array or pytree of arrays), not a scalar loss; use 'bfgs' or 'adam' "
+            "for a scalar objective (or leave `method` at its default)"
+        )
+    if not least_squares:
+        f_struct = jax.ShapeDtypeStruct((), jnp.result_type(*jax.tree_util.tree_leaves(f_struct)))
+    s_arrays = _optimistix_init(problem, solver, z, args, f_struct, least_squares, scalar)
+    best = (z, jnp.asarray(jnp.inf), jnp.asarray(0))
+    state = (z, s_arrays, jnp.asarray(False), best, jnp.asarray(0))
+
+    def run(state, args, n):
+        return _optimistix_chunk(problem, solver, state, args, f_struct, least_squares, scalar, n)
+
+    return name, state, run, True
+
+
+def _drive(run, state, args, max_steps, chunk_size, solver_test, name, bar):
+    """Run compiled chunks until `max_steps` or convergence; check each for NaN/inf."""
+    history, steps_done, converged = [], 0, False
+    while steps_done < max_steps:
+        n = min(chunk_size, max_steps - steps_done)
+        state, losses, dones = run(state, args, n)
+        losses, dones = np.asarray(losses), np.asarray(dones)
+        if solver_test and dones.any():  # steps after convergence repeat the loss
+            losses, converged = losses[: int(np.argmax(dones)) + 1], True
+        _check_finite(losses, steps_done + 1, name)
+        history.append(losses)
+        steps_done += int(losses.shape[0])
+        bar.update(steps_done, float(losses[-1]), done=converged or steps_done >= max_steps)
+        if converged:
+            break
+    return state, history, converged
 
 
 def fit(
@@ -157,183 +415,92 @@ def fit(
     method: str
     | optx.AbstractLeastSquaresSolver
     | optx.AbstractMinimiser
-    | optax.GradientTransformation = "levenberg_marquardt",
+    | optax.GradientTransformation
+    | None = None,
     max_steps: int = 100,
     learning_rate: float = 1e-2,
     rtol: float = 1e-8,
     atol: float = 1e-10,
     progress: bool = False,
     chunk_size: int | None = None,
+    bounds: PyTree | None = None,
+    fixed: PyTree | Callable[[Any], bool] | None = None,
 ) -> FitResult:
     """Fit `params` so that `fn(params, *args)` is as small as possible.
+
+    A driver that runs cached, compiled chunks of steps in a Python loop: call it
+    eagerly, not under `jax.jit`/`jax.grad`/`jax.vmap` (see the module docstring).
 
     **Arguments:**
 
     - `fn`: returns either residuals (any pytree of arrays; the loss is the sum of
-      their squares) or a scalar loss. Least-squares methods need residuals.
+      their squares) or a 0-d scalar loss (minimised as it is), for every method.
     - `params`: the starting point, any pytree (dicts, tuples, `eqx.Module`s such as
       a `Bezier` curve or a `Camera`). Floating-point array leaves are fitted; other
-      leaves are held fixed.
+      leaves are held fixed. An `eqx.Module` in `params` may define a method
+      `fixed_fields(self) -> tuple[str, ...]`: the fields it names are held fixed
+      (e.g. a `BSpline`'s knots when it is not fitting them).
     - `args`: extra arguments passed to `fn` (data, targets), not fitted.
-    - `method`: `"levenberg_marquardt"` (default), `"gauss_newton"`, `"bfgs"`,
-      `"adam"`, `"gradient_descent"`, or a ready optimistix solver or optax
-      transformation.
-    - `max_steps`: the most steps to take.
-    - `learning_rate`: for `"adam"` and `"gradient_descent"`.
-    - `rtol`, `atol`: convergence tolerances of the optimistix solvers.
+    - `method`: `"levenberg_marquardt"`, `"gauss_newton"`, `"bfgs"`, `"adam"`,
+      `"gradient_descent"`, or a ready optimistix solver or optax transformation.
+      Default: Levenberg-Marquardt for residuals, BFGS for a scalar loss.
+    - `max_steps`: the most steps to take (1 to `MAX_STEPS`).
+    - `learning_rate`: for `"adam"` and `"gradient_descent"`, > 0.
+    - `rtol`, `atol`: convergence tolerances of the optimistix solvers, >= 0.
     - `progress`: show a progress line (updates in place in a notebook).
     - `chunk_size`: steps run per compiled call between progress updates and NaN
       checks (default: all at once without progress, about 20 updates with it).
+    - `bounds`: `(lo, hi)` per parameter, as a pytree prefix of `params` (a dict
+      `{"quality": (1.0, 100.0)}`, one pair for everything, `None` for unbounded parts;
+      `lo`/`hi` may be arrays, `None` or infinite for one-sided bounds). A bounded
+      parameter is fitted through a smooth reparametrisation (a scaled sigmoid, or a
+      softplus for one side), so it stays strictly inside `(lo, hi)` at every step,
+      never clipped; the start must be strictly inside. Learning rates apply to the
+      unconstrained variable.
+    - `fixed`: leaves to hold fixed: a pytree prefix of `params` with `True` (fixed) /
+      `False`, or a callable `leaf -> bool`. Adds to the `fixed_fields` protocol.
 
-    **Returns:** a `FitResult` with the fitted `params` and the `loss_history`.
+    **Returns:** a `FitResult` with the best `params` seen and the `loss_history`.
 
-    **Raises:** `FitError` when the objective returns NaN or inf (naming the step), or
-    when a least-squares method is given a scalar loss.
+    **Raises:** `FitError` (a `ValueError`) when the objective returns NaN or inf
+    (naming the step), for a scalar loss given to a least-squares method, and for
+    out-of-range settings; `TypeError` for arguments of the wrong kind and when called
+    under a JAX transformation.
     """
-    if not isinstance(max_steps, int) or max_steps < 1:
-        raise FitError(f"`max_steps` must be a positive int, got {max_steps!r}")
-    if not isinstance(args, tuple):
-        raise FitError(f"`args` must be a tuple of extra arguments, got {type(args).__name__}")
-    dynamic, static, objective, out_struct = _prepare(fn, params, args, method)
-    scalar = _is_scalar_output(out_struct)
-    name = method if isinstance(method, str) else type(method).__name__
+    _check_call(fn, params, args, method, progress)
+    max_steps = _count(max_steps, "max_steps")
+    chunk_size = _count(chunk_size, "chunk_size", optional=True)
+    options = (
+        _positive_number(learning_rate, "learning_rate"),
+        _positive_number(rtol, "rtol", allow_zero=True),
+        _positive_number(atol, "atol", allow_zero=True),
+    )
+    problem, z = _setup(fn, params, fixed, bounds)
+    try:
+        initial_loss, scalar, f_struct = _describe(problem, z, args)
+    except FitError:
+        raise
+    except Exception as err:
+        raise FitError(f"calling `fn` with the initial parameters failed: {err}") from err
+    name, state, run, solver_test = _runner(problem, method, z, args, scalar, f_struct, options)
+    _check_finite(initial_loss[None], 0, name)
     if chunk_size is None:
         chunk_size = max(1, max_steps // 20) if progress else max_steps
-    chunk_size = max(1, min(int(chunk_size), max_steps))
-
-    def loss_of(dyn):
-        return _loss_from_output(objective(dyn, args))
-
-    initial_loss = loss_of(dynamic)
-    _check_finite(initial_loss[None], 0, name)
     bar = _Progress(progress, max_steps, name)
     bar.update(0, float(initial_loss))
-
-    if isinstance(method, optax.GradientTransformation) or method in ("adam", "gradient_descent"):
-        if isinstance(method, optax.GradientTransformation):
-            optimizer = method
-        elif method == "adam":
-            optimizer = optax.adam(learning_rate)
-        else:
-            optimizer = optax.sgd(learning_rate)
-        run = _optax_runner(loss_of, optimizer)
-        state = (dynamic, optimizer.init(dynamic))
-        solver_done = None
-    else:
-        solver = _optimistix_solver(method, rtol, atol)
-        is_least_squares = isinstance(solver, optx.AbstractLeastSquaresSolver)
-        if is_least_squares and scalar:
-            raise FitError(
-                f"method {name!r} is a least-squares solver: `fn` must return residuals "
-                "(an array or pytree of arrays), not a scalar loss; use 'bfgs' or 'adam' "
-                "for a scalar objective"
-            )
-        run, state = _optimistix_runner(
-            objective, loss_of, solver, dynamic, args, out_struct, is_least_squares, scalar
-        )
-        solver_done = True
-
-    history = [initial_loss[None]]
-    steps_done = 0
-    converged = False
-    while steps_done < max_steps:
-        n = min(chunk_size, max_steps - steps_done)
-        state, losses, done_flags = run(state, n)
-        if solver_done is not None:
-            # Steps after convergence repeat the converged loss; drop them.
-            done_np = jnp.asarray(done_flags)
-            if bool(jnp.any(done_np)):
-                first = int(jnp.argmax(done_np))
-                losses = losses[: first + 1]
-                converged = True
-        _check_finite(losses, steps_done + 1, name)
-        history.append(losses)
-        steps_done += int(losses.shape[0])
-        bar.update(steps_done, float(losses[-1]), done=converged or steps_done >= max_steps)
-        if converged:
-            break
-    fitted = eqx.combine(state[0], static)
+    state, history, converged = _drive(
+        run, state, args, max_steps, min(chunk_size, max_steps), solver_test, name, bar
+    )
+    best_z, best_loss, best_step = state[-2]
+    loss_history = np.concatenate([np.asarray(initial_loss)[None], *history])
+    best_step = int(best_step) if np.isfinite(float(best_loss)) else 0
+    if float(initial_loss) <= loss_history[best_step]:
+        best_z, best_step = z, 0  # the start is as good as anything seen
     return FitResult(
-        params=fitted,
-        loss_history=jnp.concatenate(history),
-        num_steps=steps_done,
+        params=problem.params(best_z),
+        loss_history=jnp.asarray(loss_history),
+        num_steps=len(loss_history) - 1,
         converged=converged,
         method=name,
+        best_step=best_step,
     )
-
-
-def _optax_runner(loss_of, optimizer):
-    value_and_grad = jax.value_and_grad(loss_of)
-
-    @eqx.filter_jit
-    def run(state, n):
-        def step(carry, _):
-            dyn, opt_state = carry
-            _, grads = value_and_grad(dyn)
-            updates, opt_state = optimizer.update(grads, opt_state, dyn)
-            dyn = optax.apply_updates(dyn, updates)
-            return (dyn, opt_state), loss_of(dyn)
-
-        carry, losses = jax.lax.scan(step, state, None, length=n)
-        return carry, losses, jnp.zeros(losses.shape, bool)
-
-    return lambda state, n: run(state, int(n))
-
-
-def _optimistix_solver(method, rtol, atol):
-    if not isinstance(method, str):
-        return method
-    if method == "levenberg_marquardt":
-        return optx.LevenbergMarquardt(rtol=rtol, atol=atol)
-    if method == "gauss_newton":
-        return optx.GaussNewton(rtol=rtol, atol=atol)
-    return optx.BFGS(rtol=rtol, atol=atol)
-
-
-def _optimistix_runner(
-    objective, loss_of, solver, dynamic, args, out_struct, least_squares, scalar
-):
-    if least_squares:
-
-        def fn(y, fn_args):
-            return objective(y, fn_args), None
-
-        f_struct = out_struct
-    else:
-
-        def fn(y, fn_args):
-            out = objective(y, fn_args)
-            return (out if scalar else _loss_from_output(out)), None
-
-        f_struct = jax.ShapeDtypeStruct((), jnp.result_type(*jax.tree_util.tree_leaves(out_struct)))
-    options: dict[str, Any] = {}
-    tags = frozenset()
-    solver_state = solver.init(fn, dynamic, args, options, f_struct, None, tags)
-
-    # The solver state holds static parts (e.g. jaxprs of the Jacobian) that cannot be
-    # scan carries: carry only its arrays.
-    state_arrays, state_static = eqx.partition(solver_state, eqx.is_array)
-
-    @eqx.filter_jit
-    def run(state, n):
-        def step(carry, _):
-            y, s_arrays, done = carry
-            y_new, s_new, _ = solver.step(
-                fn, y, args, options, eqx.combine(s_arrays, state_static), tags
-            )
-            s_new_arrays = eqx.filter(s_new, eqx.is_array)
-            y = jax.tree_util.tree_map(lambda a, b: jnp.where(done, a, b), y, y_new)
-            s_arrays = jax.tree_util.tree_map(
-                lambda a, b: jnp.where(done, a, b), s_arrays, s_new_arrays
-            )
-            finished, _ = solver.terminate(
-                fn, y, args, options, eqx.combine(s_arrays, state_static), tags
-            )
-            done = done | finished
-            return (y, s_arrays, done), (loss_of(y), done)
-
-        carry, (losses, dones) = jax.lax.scan(step, state, None, length=n)
-        return carry, losses, dones
-
-    state = (dynamic, state_arrays, jnp.array(False))
-    return (lambda state, n: run(state, int(n))), state

@@ -17,7 +17,24 @@ import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float
 
 from . import transforms as tf
-from ._checks import as_float, check_last_dim, common_float, safe_norm, static_shape, value_error_if
+from ._checks import (
+    check_finite,
+    check_last_dim,
+    check_range,
+    common_float,
+    finite_float,
+    safe_norm,
+    static_shape,
+    value_error_if,
+)
+
+
+def _finite(*arrays, names):
+    """Floats of one dtype, each checked finite (NaN/inf name the argument)."""
+    return [
+        check_finite(a, n) for a, n in zip(common_float(*arrays, names=names), names, strict=True)
+    ]
+
 
 __all__ = [
     "look_at",
@@ -34,9 +51,10 @@ __all__ = [
 ]
 
 
-def _unit(v: jax.Array, name: str) -> jax.Array:
+def _unit(v: jax.Array, message: str, scale=None) -> jax.Array:
     length = safe_norm(v, keepdims=True)
-    v = value_error_if(v, length == 0, f"{name} is zero: the camera frame is undefined")
+    tiny = 0.0 if scale is None else 1e-12 * scale
+    v = value_error_if(v, length <= tiny, message)
     return v / jnp.where(length == 0, 1.0, length)
 
 
@@ -53,11 +71,16 @@ def look_at(
     - `eye`, `target`, `up`: 3-vectors; `target != eye` and `up` not parallel to the
       viewing direction.
     """
-    eye, target, up = common_float(eye, target, up, names=("eye", "target", "up"))
+    eye, target, up = _finite(eye, target, up, names=("eye", "target", "up"))
     for name, v in (("eye", eye), ("target", target), ("up", up)):
         check_last_dim(v, name, (3,), "a 3D point or direction")
-    forward = _unit(target - eye, "`target - eye`")
-    right = _unit(jnp.cross(forward, up), "`up` x viewing direction (up is parallel to it)")
+    forward = _unit(target - eye, "`target` equals `eye`: the viewing direction is undefined")
+    up_length = safe_norm(up, keepdims=True)
+    right = _unit(
+        jnp.cross(forward, up),
+        "`up` must be non-zero and not parallel to the viewing direction `target - eye`",
+        scale=up_length,
+    )
     true_up = jnp.cross(right, forward)
     rotation = jnp.stack([right, true_up, -forward], axis=-2)
     offset = -jnp.einsum("...ij,...j->...i", rotation, eye)
@@ -68,10 +91,16 @@ def _check_range(lo, hi, name_lo, name_hi):
     return value_error_if(lo, hi <= lo, f"`{name_hi}` must be greater than `{name_lo}`")
 
 
+_SIDES = ("left", "right", "bottom", "top", "near", "far")
+
+
 def orthographic(left, right, bottom, top, near, far) -> Float[Array, "4 4"]:
     """Orthographic projection of the box `[left, right] x [bottom, top] x [-far, -near]`
-    (eye space) onto the canonical view volume (glOrtho)."""
-    left, right, bottom, top, near, far = common_float(
+    (eye space) onto the canonical view volume (glOrtho).
+
+    All six finite, with `right > left`, `top > bottom`, `far > near`.
+    """
+    left, right, bottom, top, near, far = _finite(
         left, right, bottom, top, near, far, names=("left", "right", "bottom", "top", "near", "far")
     )
     left = _check_range(left, right, "left", "right")
@@ -92,15 +121,13 @@ def frustum(left, right, bottom, top, near, far) -> Float[Array, "4 4"]:
     """Perspective projection of the truncated viewing pyramid whose near-plane window
     is `[left, right] x [bottom, top]` at distance `near` (glFrustum).
 
-    `0 < near < far`.
+    All six finite, `right > left`, `top > bottom` and `0 < near < far`.
     """
-    left, right, bottom, top, near, far = common_float(
-        left, right, bottom, top, near, far, names=("left", "right", "bottom", "top", "near", "far")
-    )
-    left = _check_range(left, right, "left", "right")
-    bottom = _check_range(bottom, top, "bottom", "top")
+    left, right, bottom, top, near, far = _finite(left, right, bottom, top, near, far, names=_SIDES)
     near = value_error_if(near, near <= 0, "`near` must be positive for a perspective projection")
     near = _check_range(near, far, "near", "far")
+    left = _check_range(left, right, "left", "right")
+    bottom = _check_range(bottom, top, "bottom", "top")
     zero = jnp.zeros_like(left)
     rows = [
         [2 * near / (right - left), zero, (right + left) / (right - left), zero],
@@ -109,6 +136,20 @@ def frustum(left, right, bottom, top, near, far) -> Float[Array, "4 4"]:
         [zero, zero, -jnp.ones_like(left), zero],
     ]
     return jnp.stack([jnp.stack(r, -1) for r in rows], -2)
+
+
+def _lens(fov_y, aspect, near, far):
+    """The four lens parameters, finite and in range (each error names its argument)."""
+    fov_y, aspect, near, far = _finite(
+        fov_y, aspect, near, far, names=("fov_y", "aspect", "near", "far")
+    )
+    fov_y = check_range(
+        fov_y, "fov_y", minimum=0, maximum=jnp.pi, lower_open=True, upper_open=True, what="radians"
+    )
+    aspect = check_range(aspect, "aspect", minimum=0, lower_open=True, what="width / height")
+    near = value_error_if(near, near <= 0, "`near` must be positive for a perspective projection")
+    near = _check_range(near, far, "near", "far")
+    return fov_y, aspect, near, far
 
 
 def perspective(fov_y, aspect, near, far) -> Float[Array, "4 4"]:
@@ -120,13 +161,7 @@ def perspective(fov_y, aspect, near, far) -> Float[Array, "4 4"]:
     - `aspect`: width / height, > 0.
     - `near`, `far`: distances to the clipping planes, `0 < near < far`.
     """
-    fov_y, aspect, near, far = common_float(
-        fov_y, aspect, near, far, names=("fov_y", "aspect", "near", "far")
-    )
-    fov_y = value_error_if(
-        fov_y, (fov_y <= 0) | (fov_y >= jnp.pi), "`fov_y` must be in (0, pi) radians"
-    )
-    aspect = value_error_if(aspect, aspect <= 0, "`aspect` must be positive")
+    fov_y, aspect, near, far = _lens(fov_y, aspect, near, far)
     top = near * jnp.tan(fov_y / 2)
     right = top * aspect
     return frustum(-right, right, -top, top, near, far)
@@ -143,8 +178,9 @@ def in_view_volume(
     ndc_points: Float[Array, "*batch 3"], *, tolerance: float = 0.0
 ) -> Bool[Array, "*batch"]:
     """Whether NDC points lie inside the canonical view volume `[-1, 1]^3`."""
-    ndc_points = as_float(ndc_points, "ndc_points")
+    ndc_points = finite_float(ndc_points, "ndc_points")
     check_last_dim(ndc_points, "ndc_points", (3,), "NDC points")
+    tolerance = check_range(finite_float(tolerance, "tolerance"), "tolerance", minimum=0)
     return jnp.all(jnp.abs(ndc_points) <= 1 + tolerance, axis=-1)
 
 
@@ -157,7 +193,7 @@ def ndc_to_pixels(
     pixel centres sit at integers 0..W-1 (x) and 0..H-1 (y, up).
     """
     height, width = static_shape(shape)
-    ndc_points = as_float(ndc_points, "ndc_points")
+    ndc_points = finite_float(ndc_points, "ndc_points")
     check_last_dim(ndc_points, "ndc_points", (2, 3, 4), "NDC points")
     size = jnp.array([width, height], ndc_points.dtype)
     return (ndc_points[..., :2] + 1) / 2 * size - 0.5
@@ -173,7 +209,7 @@ def plane_projection(axis: str) -> Float[Array, "4 4"]:
     the front view), `"y"` gives `[T_y]` (top view, onto y = 0) and `"x"` gives
     `[T_x]` (side view, onto x = 0).
     """
-    if axis not in _AXIS_INDEX:
+    if not isinstance(axis, str) or axis not in _AXIS_INDEX:
         raise ValueError(f"`axis` must be 'x', 'y' or 'z', got {axis!r}")
     return jnp.diag(jnp.ones(4).at[_AXIS_INDEX[axis]].set(0.0))
 
@@ -201,7 +237,7 @@ def orthographic_view(name: str) -> Float[Array, "4 4"]:
 
     - `name`: one of `"front"`, `"rear"`, `"right"`, `"left"`, `"top"`, `"bottom"`.
     """
-    if name not in ORTHOGRAPHIC_VIEWS:
+    if not isinstance(name, str) or name not in ORTHOGRAPHIC_VIEWS:
         raise ValueError(f"`name` must be one of {sorted(ORTHOGRAPHIC_VIEWS)}, got {name!r}")
     toward_viewer, up = ORTHOGRAPHIC_VIEWS[name]
     view = look_at(jnp.array(toward_viewer, float), jnp.zeros(3), jnp.array(up, float))
@@ -211,7 +247,15 @@ def orthographic_view(name: str) -> Float[Array, "4 4"]:
 class Camera(eqx.Module):
     """A pinhole camera: pose (`eye`, `target`, `up`) and a perspective lens.
 
-    A pytree, so `gfxlab.fit` can fit any of its fields (all are traced arrays).
+    A pytree, so `gfxlab.fit` can fit any of its fields (all are traced arrays). The
+    pose can instead be given by a rotation parametrisation (`Camera.from_rotation`,
+    or `rotation=` here), which is the better choice to fit an orientation: then
+    `view_matrix` uses `rotation`, `target`/`up` are derived from it for reference, and
+    `fixed_fields()` tells `gfxlab.fit` to hold them fixed.
+
+    Every field is checked at construction (eagerly and under jit): finite values,
+    `0 < fov_y < pi`, `aspect > 0`, `0 < near < far`, `target != eye`, `up` not parallel
+    to the viewing direction; each error names its argument.
 
     **Fields:**
 
@@ -219,6 +263,9 @@ class Camera(eqx.Module):
     - `fov_y`: vertical field of view, radians.
     - `aspect`: width / height.
     - `near`, `far`: clipping distances.
+    - `rotation`: `None`, or the camera-to-world rotation in `representation` (one of
+      `gfxlab.transforms.ROTATION_REPRESENTATIONS`): the camera's x (right), y (up) and
+      z (backwards: it looks down -z) axes are the columns of its matrix.
     """
 
     eye: Float[Array, "3"]
@@ -228,6 +275,8 @@ class Camera(eqx.Module):
     aspect: Float[Array, ""]
     near: Float[Array, ""]
     far: Float[Array, ""]
+    rotation: Float[Array, " k"] | None = None
+    representation: str = eqx.field(static=True, default="axis_angle")
 
     def __init__(
         self,
@@ -239,20 +288,45 @@ class Camera(eqx.Module):
         aspect=1.0,
         near=0.1,
         far=100.0,
+        rotation=None,
+        representation: str = "axis_angle",
     ):
-        self.eye, self.target, self.up = (
-            as_float(eye, "eye"),
-            as_float(target, "target"),
-            as_float(up, "up"),
-        )
-        for name in ("eye", "target", "up"):
-            check_last_dim(getattr(self, name), name, (3,), "a 3-vector")
-        self.fov_y, self.aspect = as_float(fov_y, "fov_y"), as_float(aspect, "aspect")
-        self.near, self.far = as_float(near, "near"), as_float(far, "far")
+        eye = finite_float(eye, "eye")
+        check_last_dim(eye, "eye", (3,), "a 3-vector")
+        self.fov_y, self.aspect, self.near, self.far = _lens(fov_y, aspect, near, far)
+        if not isinstance(representation, str) or representation not in tf.ROTATION_REPRESENTATIONS:
+            raise ValueError(
+                f"`representation` must be one of {sorted(tf.ROTATION_REPRESENTATIONS)}, "
+                f"got {representation!r:.40}"
+            )
+        self.representation = representation
+        if rotation is None:
+            self.rotation = None
+            self.eye, self.target, self.up = _checked_pose(eye, target, up)
+            return
+        self.rotation = finite_float(rotation, "rotation")
+        frame = tf._rotation_matrix(self.rotation, representation, "rotation")
+        frame = frame.astype(eye.dtype)
+        self.eye, self.target, self.up = eye, eye - frame[..., :, 2], frame[..., :, 1]
+
+    @classmethod
+    def from_rotation(cls, eye, rotation, representation: str = "axis_angle", **lens) -> Camera:
+        """A camera at `eye` oriented by a rotation parametrisation (see the class doc);
+        `lens` takes `fov_y`, `aspect`, `near`, `far`. A zero rotation looks down -z."""
+        return cls(eye, rotation=rotation, representation=representation, **lens)
+
+    def fixed_fields(self) -> tuple[str, ...]:
+        """Fields `gfxlab.fit` holds fixed: `target` and `up` when `rotation` sets the pose."""
+        return () if self.rotation is None else ("target", "up")
 
     def view_matrix(self) -> Float[Array, "4 4"]:
-        """World to eye space (`look_at`)."""
-        return look_at(self.eye, self.target, self.up)
+        """World to eye space (`look_at`, or the inverse of the rotation's frame)."""
+        if self.rotation is None:
+            return look_at(self.eye, self.target, self.up)
+        frame = tf._rotation_matrix(self.rotation, self.representation, "rotation")
+        to_eye = jnp.swapaxes(frame, -1, -2)
+        eye = finite_float(self.eye, "eye")
+        return tf._embed(to_eye, -jnp.einsum("...ij,...j->...i", to_eye, eye))
 
     def projection_matrix(self) -> Float[Array, "4 4"]:
         """Eye space to clip space (`perspective`)."""
@@ -275,3 +349,21 @@ class Camera(eqx.Module):
     def depth(self, points: Float[Array, "*batch N 3"]) -> Float[Array, "*batch N"]:
         """Distance in front of the camera along the viewing axis (eye-space -z)."""
         return -tf.apply(self.view_matrix(), points)[..., 2]
+
+
+def _checked_pose(eye, target, up):
+    """`eye`, `target`, `up` as finite 3-vectors with a well-defined camera frame."""
+    eye, target, up = _finite(eye, target, up, names=("eye", "target", "up"))
+    for name, v in (("target", target), ("up", up)):
+        check_last_dim(v, name, (3,), "a 3-vector")
+    forward = target - eye
+    target = value_error_if(
+        target, safe_norm(forward) == 0, "`target` equals `eye`: the viewing direction is undefined"
+    )
+    side = safe_norm(jnp.cross(forward, up))
+    up = value_error_if(
+        up,
+        side <= 1e-12 * safe_norm(up) * safe_norm(forward),
+        "`up` must be non-zero and not parallel to the viewing direction `target - eye`",
+    )
+    return eye, target, up

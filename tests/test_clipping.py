@@ -30,13 +30,31 @@ def _segments(rng, count):
     """Random segments plus the degenerate cases: points, vertical, horizontal, on an
     edge, along an edge beyond the corners, through a corner, touching at a corner."""
     random = rng.uniform(-6.0, 18.0, (count, 2, 2))
-    special = np.array([
-        [[4, 4], [4, 4]], [[0, 0], [0, 0]], [[2, 5], [2, 5]], [[10, 8], [10, 8]],
-        [[5, -3], [5, 12]], [[-4, 6], [15, 6]], [[12, 1], [12, 9]], [[0, 9], [12, 9]],
-        [[2, 0], [2, 12]], [[-1, 8], [13, 8]], [[4, 2], [7, 2]], [[10, 3], [10, 7]],
-        [[1, 9], [3, 7]], [[1, 7], [3, 9]], [[9, 9], [11, 7]], [[0, 4], [4, 0]],
-        [[-2, -2], [14, 14]], [[3, 3], [9, 7]], [[12, 5], [-3, 5]], [[6, 9], [6, 1]],
-    ], float)
+    special = np.array(
+        [
+            [[4, 4], [4, 4]],
+            [[0, 0], [0, 0]],
+            [[2, 5], [2, 5]],
+            [[10, 8], [10, 8]],
+            [[5, -3], [5, 12]],
+            [[-4, 6], [15, 6]],
+            [[12, 1], [12, 9]],
+            [[0, 9], [12, 9]],
+            [[2, 0], [2, 12]],
+            [[-1, 8], [13, 8]],
+            [[4, 2], [7, 2]],
+            [[10, 3], [10, 7]],
+            [[1, 9], [3, 7]],
+            [[1, 7], [3, 9]],
+            [[9, 9], [11, 7]],
+            [[0, 4], [4, 0]],
+            [[-2, -2], [14, 14]],
+            [[3, 3], [9, 7]],
+            [[12, 5], [-3, 5]],
+            [[6, 9], [6, 1]],
+        ],
+        float,
+    )
     # random vertical and horizontal segments
     vertical = random[:200].copy()
     vertical[:, 1, 0] = vertical[:, 0, 0]
@@ -120,8 +138,17 @@ def test_seed_walkthrough_ad_and_ei():
     window = s["window"]
     assert clipping.EDGE_ORDER == ("top", "bottom", "right", "left")
     code = {name: int(clipping.outcode(jnp.array(s[name]), window)) for name in "ABDEFGHI"}
-    assert code == {"A": 0, "B": 0, "D": 0b1001, "E": 0b0010, "F": 0, "G": 0,
-                    "H": 0b0100, "I": 0b0101}
+    assert code == {
+        "A": 0,
+        "B": 0,
+        "D": 0b1001,
+        "E": 0b0010,
+        "F": 0,
+        "G": 0,
+        "H": 0b0100,
+        "I": 0b0101,
+    }
+
     # The named points are where the seed says: B on the top edge of AD, C on its left
     # edge line, F on the bottom edge of EI, H on its top edge line, G on its right edge.
     def on_line(p, a, b):
@@ -135,14 +162,19 @@ def test_seed_walkthrough_ad_and_ei():
 
     ad = clipping.cohen_sutherland_trace([s["A"], s["D"]], window)
     assert [(r["action"], r["edge"], r["clipped_point"]) for r in ad] == [
-        ("clip", "top", "p1"), ("accept", None, None)]
+        ("clip", "top", "p1"),
+        ("accept", None, None),
+    ]
     assert (ad[0]["code0"], ad[0]["code1"], ad[0]["and"], ad[0]["or"]) == (0, 9, 0, 9)
     assert ad[0]["new_point"] == s["B"] and ad[1]["p1"] == s["B"]
 
     ei = clipping.cohen_sutherland_trace([s["E"], s["I"]], window)
     assert [(r["action"], r["edge"], r["clipped_point"]) for r in ei] == [
-        ("clip", "bottom", "p0"), ("clip", "top", "p1"), ("clip", "right", "p1"),
-        ("accept", None, None)]
+        ("clip", "bottom", "p0"),
+        ("clip", "top", "p1"),
+        ("clip", "right", "p1"),
+        ("accept", None, None),
+    ]
     assert [r["new_point"] for r in ei[:3]] == [s["F"], s["H"], s["G"]]
     assert (ei[0]["code0"], ei[0]["code1"], ei[0]["and"], ei[0]["or"]) == (2, 5, 0, 7)
     assert ei[2]["code1"] == 0b0100
@@ -185,11 +217,11 @@ def test_sutherland_hodgman_matches_shapely(maybe_jit):
             polygon = _star(rng, 11, rng.uniform(0, 12, 2), 1.0, 8.0)
         vertices, valid = clip(polygon, jnp.asarray(WINDOW), max_vertices=40)
         expected = shapely.Polygon(polygon).intersection(box)
-        np.testing.assert_allclose(clipping.polygon_area(vertices, valid), expected.area,
-                                   atol=1e-9)
+        np.testing.assert_allclose(clipping.polygon_area(vertices, valid), expected.area, atol=1e-9)
         inside = np.asarray(vertices)[np.asarray(valid)]
-        assert np.all((inside >= np.array(WINDOW[:2]) - 1e-12)
-                      & (inside <= np.array(WINDOW[2:]) + 1e-12))
+        assert np.all(
+            (inside >= np.array(WINDOW[:2]) - 1e-12) & (inside <= np.array(WINDOW[2:]) + 1e-12)
+        )
         if trial % 2 and not expected.is_empty:  # convex: exactly shapely's vertices
             ref = np.asarray(expected.exterior.coords)[:-1]
             ours = np.unique(np.round(inside, 9), axis=0)
@@ -201,7 +233,8 @@ def test_sutherland_hodgman_inside_outside_and_default_size():
     vertices, valid = clipping.sutherland_hodgman(triangle, WINDOW)
     assert vertices.shape == (14, 2) and int(valid.sum()) == 3
     assert {tuple(v) for v in np.asarray(vertices[valid]).tolist()} == {
-        tuple(v) for v in np.asarray(triangle).tolist()}
+        tuple(v) for v in np.asarray(triangle).tolist()
+    }
     _, valid = clipping.sutherland_hodgman(triangle + 20.0, WINDOW)
     assert not bool(valid.any())
     big = jnp.array([[0.0, 0.0], [12.0, 0.0], [12.0, 10.0], [0.0, 10.0]])
@@ -211,8 +244,7 @@ def test_sutherland_hodgman_inside_outside_and_default_size():
 
 def test_clipping_bad_inputs():
     segments = jnp.zeros((3, 2, 2))
-    for fn in (clipping.cohen_sutherland, clipping.cohen_sutherland_steps,
-               clipping.liang_barsky):
+    for fn in (clipping.cohen_sutherland, clipping.cohen_sutherland_steps, clipping.liang_barsky):
         with pytest.raises(ValueError, match="window"):
             fn(segments, (10.0, 2.0, 2.0, 8.0))  # inverted
         with pytest.raises(ValueError, match="segments"):
@@ -236,3 +268,106 @@ def test_clipping_bad_inputs():
         clipping.sutherland_hodgman(big + jnp.array([0.0, -1.0]), WINDOW, max_vertices=3)
     with pytest.raises(ValueError, match="valid"):
         clipping.polygon_area(big, jnp.ones(3, bool))
+
+
+NAN, INF = float("nan"), float("inf")
+SEG = jnp.array([[[-1.0, 5.0], [12.0, 5.0]]])
+TRI = jnp.array([[0.0, 0.0], [12.0, 0.0], [6.0, 9.0]])
+
+
+@pytest.mark.parametrize(
+    ("call", "error", "message"),
+    [
+        (
+            lambda: clipping.cohen_sutherland(SEG.at[0, 0, 0].set(NAN), WINDOW),
+            ValueError,
+            "`segments` must be finite",
+        ),
+        (
+            lambda: clipping.cohen_sutherland_steps(SEG.at[0, 1, 1].set(INF), WINDOW),
+            ValueError,
+            "`segments` must be finite",
+        ),
+        (
+            lambda: clipping.liang_barsky(SEG, (0.0, 0.0, INF, 1.0)),
+            ValueError,
+            "`window` must be finite",
+        ),
+        (lambda: clipping.liang_barsky(None, WINDOW), TypeError, "`segments` must be an array"),
+        (
+            lambda: clipping.outcode(jnp.array([[NAN, 0.0]]), WINDOW),
+            ValueError,
+            "`points` must be finite",
+        ),
+        (lambda: clipping.outcode(jnp.zeros((1, 2)), None), TypeError, "`window` must be an array"),
+        (
+            lambda: clipping.cohen_sutherland_trace(SEG[0].at[0, 0].set(NAN), WINDOW),
+            ValueError,
+            "`segment` must be finite",
+        ),
+        (
+            lambda: clipping.sutherland_hodgman(TRI.at[1, 0].set(INF), WINDOW),
+            ValueError,
+            "`polygon` must be finite",
+        ),
+        (
+            lambda: clipping.sutherland_hodgman(TRI, WINDOW, max_vertices=10**12),
+            ValueError,
+            "`max_vertices` must be <= 1000000",
+        ),
+        (
+            lambda: clipping.sutherland_hodgman(TRI, WINDOW, max_vertices=2.5),
+            TypeError,
+            "`max_vertices` must be an int",
+        ),
+        (
+            lambda: clipping.polygon_area(TRI.at[0, 0].set(NAN)),
+            ValueError,
+            "`vertices` must be finite",
+        ),
+        (
+            lambda: clipping.polygon_area(TRI, jnp.ones(3)),
+            TypeError,
+            "`valid` must be a boolean mask",
+        ),
+        (lambda: clipping.polygon_area(TRI, "abc"), TypeError, "`valid` must be a boolean mask"),
+    ],
+)
+def test_non_finite_and_huge_inputs_are_rejected_naming_the_argument(call, error, message):
+    with pytest.raises(error, match=message):
+        call()
+
+
+@pytest.mark.parametrize(
+    ("fn", "bad", "message"),
+    [
+        (
+            lambda s: clipping.cohen_sutherland(s, WINDOW),
+            SEG.at[0, 0, 0].set(NAN),
+            "`segments` must be finite",
+        ),
+        (
+            lambda s: clipping.liang_barsky(s, WINDOW),
+            SEG.at[0, 0, 0].set(INF),
+            "`segments` must be finite",
+        ),
+        (
+            lambda w: clipping.outcode(jnp.zeros((1, 2)), w),
+            jnp.array([0.0, 0, NAN, 1]),
+            "`window` must be finite",
+        ),
+        (
+            lambda p: clipping.sutherland_hodgman(p, WINDOW)[0],
+            TRI.at[0, 0].set(NAN),
+            "`polygon` must be finite",
+        ),
+    ],
+)
+def test_non_finite_inputs_under_jit_carry_the_same_message(fn, bad, message):
+    from gfxlab import _checks
+
+    with pytest.raises(jax.errors.JaxRuntimeError) as info:
+        jax.jit(fn)(bad)
+    assert _checks.check_message(info.value).startswith(message)
+    with pytest.raises(ValueError, match=f"^{message}"):
+        _checks.checked_jit(fn)(bad)

@@ -141,3 +141,258 @@ def test_least_squares_needs_residuals_not_a_scalar():
 def test_no_float_parameters():
     with pytest.raises(FitError, match="no floating-point"):
         fit(lambda p: p["n"] - 1.0, {"n": 3})
+
+
+# --- a driver, not traceable: a clear error under transformations ------------------------
+
+
+@pytest.mark.parametrize("transform", [jax.jit, jax.grad, jax.vmap])
+def test_fit_under_a_transformation_says_it_is_a_driver(transform):
+    def outer(start):
+        return jnp.sum(fit(lambda p: p - 1.0, start, max_steps=3).params)
+
+    start = jnp.ones(2) if transform is not jax.vmap else jnp.ones((2, 2))
+    with pytest.raises(TypeError, match="`fit` is a driver"):
+        transform(outer)(start)
+
+
+# --- argument checks -------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "message"),
+    [
+        ({"rtol": -1.0}, FitError, "`rtol` must be a finite number >= 0"),
+        ({"rtol": float("nan")}, FitError, "`rtol` must be a finite number"),
+        ({"atol": "x"}, TypeError, "`atol` must be a number"),
+        ({"learning_rate": 0.0}, FitError, "`learning_rate` must be a finite number > 0"),
+        ({"learning_rate": float("inf")}, FitError, "`learning_rate` must be a finite"),
+        ({"learning_rate": None}, TypeError, "`learning_rate` must be a number"),
+        ({"chunk_size": 0}, FitError, "`chunk_size` must be >= 1"),
+        ({"chunk_size": 2.5}, TypeError, "`chunk_size` must be an int"),
+        ({"max_steps": None}, TypeError, "`max_steps` must be an int"),
+        ({"max_steps": 10**12}, FitError, "`max_steps` must be <= 10000000"),
+        ({"method": 3}, TypeError, "`method` must be one of"),
+        ({"method": "Adam"}, FitError, "`method` must be one of"),
+        ({"progress": "yes"}, TypeError, "`progress` must be True or False"),
+        ({"bounds": {"a": (1.0, 0.0)}}, FitError, "`bounds` of `params` leaf 0 must have lo < hi"),
+        ({"bounds": {"a": (1.0, 2.0)}}, FitError, "starts outside its open `bounds`"),
+        ({"bounds": {"b": (1.0, 2.0)}}, FitError, "`bounds` must be a pytree prefix of `params`"),
+        ({"fixed": {"a": "yes"}}, TypeError, "`fixed` must hold True/False"),
+        ({"fixed": {"a": True}}, FitError, "no floating-point arrays to fit"),
+    ],
+)
+def test_bad_settings_are_named(kwargs, error, message):
+    with pytest.raises(error, match=message):
+        fit(lambda p: p["a"] - 1.0, {"a": jnp.zeros(2)}, **kwargs)
+
+
+def test_bad_fn_and_params():
+    with pytest.raises(TypeError, match="`fn` must be callable"):
+        fit(None, jnp.zeros(2))
+    with pytest.raises(TypeError, match="`params` must be a pytree of arrays to fit, got None"):
+        fit(lambda p: p, None)
+    with pytest.raises(FitError, match="holds NaN or inf at the start"):
+        fit(lambda p: p, jnp.array([0.0, jnp.nan]))
+    with pytest.raises(FitError, match="`fn` must return an array"):
+        fit(lambda p: "loss", jnp.zeros(2))
+    with pytest.raises(FitError, match="calling `fn` with the initial parameters failed"):
+        fit(lambda p: p @ jnp.ones(3), jnp.zeros(2))
+
+
+# --- one meaning for scalars (a loss) and vectors (residuals) --------------------------
+
+
+@pytest.mark.parametrize("method", ["bfgs", "adam", "gradient_descent"])
+def test_scalar_loss_and_residuals_mean_the_same_for_minimisers(method):
+    def resid(model, x, y):
+        return model(x) - y
+
+    def loss(model, x, y):
+        return jnp.sum(resid(model, x, y) ** 2)
+
+    kw = {"args": (X, Y), "method": method, "max_steps": 60, "learning_rate": 0.02}
+    a = fit(resid, Quadratic(jnp.zeros(3)), **kw)
+    b = fit(loss, Quadratic(jnp.zeros(3)), **kw)
+    np.testing.assert_allclose(a.loss_history, b.loss_history, rtol=1e-9)
+    np.testing.assert_allclose(a.params.coeffs, b.params.coeffs, rtol=1e-7, atol=1e-10)
+    # and the history is sum(r^2) of the iterates (checked on the returned best one)
+    r = np.asarray(Quadratic(a.params.coeffs)(X) - Y)
+    np.testing.assert_allclose(a.loss, np.sum(r**2), rtol=1e-10)
+
+
+def test_default_method_follows_the_output():
+    assert fit(residuals, Quadratic(jnp.zeros(3)), args=(X, Y)).method == "levenberg_marquardt"
+    scalar = fit(
+        lambda m, x, y: jnp.sum(residuals(m, x, y) ** 2), Quadratic(jnp.zeros(3)), args=(X, Y)
+    )
+    assert scalar.method == "bfgs"
+    np.testing.assert_allclose(scalar.params.coeffs, OPTIMUM, atol=1e-6)
+    # a one-element vector is a residual vector: its square is the loss
+    one = fit(lambda p: jnp.atleast_1d(p - 2.0), jnp.asarray(0.0), method="gauss_newton")
+    np.testing.assert_allclose(one.params, 2.0, atol=1e-9)
+
+
+# --- the compiled step is cached -------------------------------------------------------
+
+
+@pytest.mark.parametrize("method", ["levenberg_marquardt", "bfgs", "adam"])
+def test_refitting_the_same_function_does_not_retrace(method):
+    traces = []
+
+    def resid(p, x, y):
+        traces.append(1)  # runs only while JAX traces `resid`
+        return p[0] * x + p[1] - y
+
+    x = jnp.linspace(0, 1, 8)
+    first = fit(resid, jnp.zeros(2), args=(x, 2 * x + 1), method=method, max_steps=30)
+    count = len(traces)
+    second = fit(resid, jnp.ones(2), args=(x, 3 * x - 1), method=method, max_steps=30)
+    assert len(traces) == count  # new data, same shapes: no new trace
+    if method != "adam":
+        np.testing.assert_allclose(first.params, [2, 1], atol=1e-6)
+        np.testing.assert_allclose(second.params, [3, -1], atol=1e-6)
+    fit(resid, jnp.zeros(2), args=(x[:4], x[:4]), method=method, max_steps=30)
+    assert len(traces) > count  # a new shape compiles again
+
+
+# --- bounds ----------------------------------------------------------------------------
+
+
+def test_bounds_keep_the_parameter_inside_instead_of_clipping():
+    seen = []
+
+    def resid(p):
+        jax.debug.callback(lambda q: seen.append(float(q)), p["quality"])
+        return jnp.atleast_1d(p["quality"] - 150.0)  # the optimum lies outside
+
+    for method in ["levenberg_marquardt", "adam"]:
+        seen.clear()
+        result = fit(
+            resid,
+            {"quality": 50.0},
+            bounds={"quality": (1.0, 100.0)},
+            method=method,
+            max_steps=400,
+            learning_rate=0.5,
+        )
+        q = float(result.params["quality"])
+        assert 99.0 < q < 100.0, method
+        assert seen and all(1.0 < v < 100.0 for v in seen)
+
+
+def test_one_sided_and_array_bounds():
+    result = fit(
+        lambda p: p + 3.0,  # wants -3
+        jnp.array([1.0, 2.0]),
+        bounds=(jnp.array([0.0, -jnp.inf]), None),
+        max_steps=200,
+    )
+    assert 0 < result.params[0] < 1e-3
+    np.testing.assert_allclose(result.params[1], -3.0, atol=1e-8)
+    upper = fit(lambda p: p - 5.0, jnp.array([-1.0]), bounds=(None, 2.0), max_steps=200)
+    assert 1.99 < float(upper.params[0]) < 2.0
+
+
+def test_bounded_start_round_trips_exactly():
+    start = {"a": jnp.array([1.5, 99.0, 42.0]), "b": jnp.array(0.25)}
+    result = fit(
+        lambda p: jnp.zeros(3) * p["a"] + 0.0 * p["b"],
+        start,
+        bounds={"a": (1.0, 100.0), "b": (0.0, None)},
+        method="adam",
+        max_steps=2,
+    )
+    np.testing.assert_allclose(result.params["a"], start["a"], rtol=1e-12)
+    np.testing.assert_allclose(result.params["b"], start["b"], rtol=1e-12)
+
+
+# --- fixed leaves and the fixed_fields protocol ----------------------------------------
+
+
+class Spline(eqx.Module):
+    """A small Module with the protocol: knots fixed unless `fit_knots`."""
+
+    knots: jax.Array
+    weights: jax.Array
+    fit_knots: bool = eqx.field(static=True, default=False)
+
+    def fixed_fields(self):
+        return () if self.fit_knots else ("knots",)
+
+    def __call__(self, x):
+        return jnp.sum(self.weights * jnp.exp(-((x[:, None] - self.knots) ** 2)), axis=-1)
+
+
+@pytest.mark.parametrize("method", ["levenberg_marquardt", "gauss_newton", "bfgs", "adam"])
+def test_fixed_fields_protocol_holds_knots(method):
+    truth = Spline(jnp.array([-0.5, 0.0, 0.5]), jnp.array([1.0, -2.0, 0.5]))
+    x = jnp.linspace(-1, 1, 30)
+    target = truth(x)
+    start = Spline(jnp.array([-0.4, 0.1, 0.6]), jnp.zeros(3))
+    result = fit(lambda m: m(x) - target, start, method=method, max_steps=50, learning_rate=0.1)
+    np.testing.assert_array_equal(result.params.knots, start.knots)
+    assert result.loss < result.loss_history[0]
+    moving = fit(
+        lambda m: m(x) - target,
+        Spline(start.knots, jnp.zeros(3), fit_knots=True),
+        method="levenberg_marquardt",
+        max_steps=50,
+    )
+    assert not np.array_equal(moving.params.knots, start.knots)
+
+
+def test_fixed_fields_protocol_nested_and_misnamed():
+    class Bad(eqx.Module):
+        w: jax.Array
+
+        def fixed_fields(self):
+            return ("knots",)
+
+    with pytest.raises(FitError, match=r"`Bad.fixed_fields\(\)` names \['knots'\]"):
+        fit(lambda m: m.w, Bad(jnp.ones(2)))
+    spline = Spline(jnp.array([0.0, 1.0]), jnp.ones(2))
+    result = fit(lambda p: p["s"].weights + p["s"].knots + p["c"], {"s": spline, "c": jnp.ones(2)})
+    np.testing.assert_array_equal(result.params["s"].knots, spline.knots)
+    np.testing.assert_allclose(
+        result.params["s"].weights + result.params["c"], -spline.knots, atol=1e-8
+    )
+
+
+def test_fixed_argument_prefix_and_callable():
+    start = {"a": jnp.array([1.0, 2.0]), "b": jnp.array(3.0)}
+    by_prefix = fit(lambda p: p["a"] + p["b"], start, fixed={"a": True, "b": False})
+    np.testing.assert_array_equal(by_prefix.params["a"], start["a"])
+    np.testing.assert_allclose(by_prefix.params["b"], -1.5, atol=1e-8)
+    by_callable = fit(lambda p: p["a"] + p["b"], start, fixed=lambda leaf: leaf.ndim == 0)
+    np.testing.assert_array_equal(by_callable.params["b"], 3.0)
+    np.testing.assert_allclose(by_callable.params["a"], [-3.0, -3.0], atol=1e-8)
+
+
+# --- the best iterate is returned ------------------------------------------------------
+
+
+def test_best_iterate_is_returned_when_the_fit_overshoots():
+    # Adam with a large rate oscillates around the minimum of p^2: the last iterate is
+    # worse than the best one.
+    result = fit(
+        lambda p: jnp.sum(p**2), jnp.array([1.0]), method="adam", learning_rate=0.3, max_steps=25
+    )
+    history = np.asarray(result.loss_history)
+    assert result.final_loss > result.loss
+    assert result.loss == history.min()
+    assert result.best_step == int(np.argmin(history))
+    np.testing.assert_allclose(np.sum(np.asarray(result.params) ** 2), result.loss, rtol=1e-12)
+
+
+def test_start_is_returned_when_nothing_improves():
+    result = fit(
+        lambda p: jnp.sum(p**2),
+        jnp.array([1.0]),
+        method="gradient_descent",
+        learning_rate=1.5,
+        max_steps=5,
+    )  # each step doubles |p|
+    assert result.best_step == 0
+    np.testing.assert_array_equal(result.params, [1.0])
+    assert result.final_loss > result.loss == 1.0

@@ -263,3 +263,192 @@ def test_degenerate_window_raises_under_jit():
     f = jax.jit(tf.window_to_viewport)
     with pytest.raises(Exception, match="positive width and height"):
         f(jnp.array([0.0, 0.0, 0.0, 1.0]), jnp.array([0.0, 0.0, 1.0, 1.0])).block_until_ready()
+
+
+# --- rotation parametrisations (issue 18) and non-finite parameters (issue 17) ---------
+
+from scipy.spatial.transform import Rotation  # noqa: E402
+
+from gfxlab import _checks  # noqa: E402
+
+rotvecs = hnp.arrays(
+    np.float64, (3,), elements=st.floats(-3.0, 3.0, allow_nan=False, allow_infinity=False)
+)
+quats = hnp.arrays(
+    np.float64, (4,), elements=st.floats(-2.0, 2.0, allow_nan=False, allow_infinity=False)
+).filter(lambda q: np.linalg.norm(q) > 1e-3)
+
+
+def _is_rotation(m):
+    m = np.asarray(m)
+    np.testing.assert_allclose(m.T @ m, np.eye(3), atol=1e-12)
+    np.testing.assert_allclose(np.linalg.det(m), 1.0, atol=1e-12)
+
+
+@given(rotvecs)
+def test_axis_angle_matches_scipy_and_round_trips(v):
+    r = tf.rotation_from_axis_angle(v)
+    _is_rotation(r)
+    np.testing.assert_allclose(r, Rotation.from_rotvec(v).as_matrix(), atol=1e-12)
+    back = np.asarray(tf.rotation_to_axis_angle(r))
+    np.testing.assert_allclose(tf.rotation_from_axis_angle(back), r, atol=1e-12)
+    if np.linalg.norm(v) < np.pi - 1e-6:
+        np.testing.assert_allclose(back, v, atol=1e-9)
+    np.testing.assert_allclose(back, Rotation.from_matrix(np.asarray(r)).as_rotvec(), atol=1e-9)
+
+
+@given(quats)
+def test_quaternion_matches_scipy_and_round_trips(q):
+    r = tf.rotation_from_quaternion(q)
+    _is_rotation(r)
+    np.testing.assert_allclose(r, Rotation.from_quat(q[[1, 2, 3, 0]]).as_matrix(), atol=1e-12)
+    np.testing.assert_allclose(tf.rotation_from_quaternion(-q), r, atol=1e-12)
+    back = np.asarray(tf.rotation_to_quaternion(r))
+    unit = q / np.linalg.norm(q) * np.sign(q[0] if q[0] != 0 else 1)
+    assert back[0] >= 0
+    np.testing.assert_allclose(tf.rotation_from_quaternion(back), r, atol=1e-12)
+    if abs(q[0]) > 1e-6:
+        np.testing.assert_allclose(back, unit, atol=1e-9)
+
+
+@given(rotvecs, rotvecs)
+def test_6d_gram_schmidt_and_round_trip(a1, a2):
+    r6 = np.concatenate([a1, a2])
+    if np.linalg.norm(np.cross(a1, a2)) < 1e-3:
+        return
+    r = np.asarray(tf.rotation_from_6d(r6))
+    _is_rotation(r)
+    np.testing.assert_allclose(r[:, 0], a1 / np.linalg.norm(a1), atol=1e-12)
+    assert np.dot(r[:, 1], a2) > 0  # a2 lies in the half-plane of the second column
+    np.testing.assert_allclose(tf.rotation_to_6d(r), np.concatenate([r[:, 0], r[:, 1]]))
+    np.testing.assert_allclose(tf.rotation_from_6d(tf.rotation_to_6d(r)), r, atol=1e-12)
+
+
+def test_rotation_representations_agree_and_embed():
+    v = jnp.array([0.3, -0.7, 1.1])
+    r = tf.rotation_from_axis_angle(v)
+    q = tf.rotation_to_quaternion(r)
+    six = tf.rotation_to_6d(r)
+    for values, name in [(v, "axis_angle"), (q, "quaternion"), (six, "6d"), (r, "matrix")]:
+        np.testing.assert_allclose(tf.rotation_matrix(values, name), r, atol=1e-12)
+        m = tf.rotation(values, representation=name)
+        np.testing.assert_allclose(m[:3, :3], r, atol=1e-12)
+        np.testing.assert_allclose(m[3], [0, 0, 0, 1])
+    # the same rotation as rotate_axis, batched
+    batch = jnp.array([[0.0, 0.0, 0.5], [0.0, 0.2, 0.0]])
+    np.testing.assert_allclose(
+        tf.rotation(batch), tf.rotate_axis(batch, jnp.linalg.norm(batch, axis=-1)), atol=1e-12
+    )
+
+
+@pytest.mark.parametrize(
+    ("fn", "point"),
+    [
+        (tf.rotation_from_axis_angle, jnp.zeros(3)),
+        (tf.rotation_from_axis_angle, jnp.array([1e-4, -2e-4, 5e-5])),
+        (tf.rotation_from_axis_angle, jnp.array([0.4, -1.2, 2.0])),
+        (tf.rotation_from_quaternion, jnp.array([1.0, 0.0, 0.0, 0.0])),
+        (tf.rotation_from_quaternion, jnp.array([0.3, -0.5, 2.0, 0.1])),
+        (tf.rotation_from_6d, jnp.array([1.0, 0.0, 0.0, 0.0, 1.0, 0.0])),
+        (tf.rotation_from_6d, jnp.array([0.3, 1.0, -0.2, 2.0, 0.1, 0.5])),
+        (lambda v: tf.rotation_to_axis_angle(tf.rotation_from_axis_angle(v)), jnp.zeros(3)),
+        (lambda v: tf.rotation_to_axis_angle(tf.rotation_from_axis_angle(v)), jnp.ones(3)),
+        (lambda v: tf.rotation_to_quaternion(tf.rotation_from_axis_angle(v)), jnp.zeros(3)),
+        (lambda v: tf.rotation_to_6d(tf.rotation_from_axis_angle(v)), jnp.zeros(3)),
+    ],
+)
+def test_rotation_gradients_are_finite_and_correct_at_the_identity(fn, point):
+    check_grads(fn, (point,), order=2, modes=["fwd", "rev"])
+    assert np.all(np.isfinite(np.asarray(jax.jacobian(fn)(point))))
+
+
+def test_round_trip_jacobian_is_the_identity_at_zero_angle():
+    jac = jax.jacobian(lambda v: tf.rotation_to_axis_angle(tf.rotation_from_axis_angle(v)))
+    np.testing.assert_allclose(jac(jnp.zeros(3)), np.eye(3), atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("call", "error", "message"),
+    [
+        (
+            lambda: tf.rotation_from_axis_angle([jnp.nan, 0, 0]),
+            ValueError,
+            "`rotvec` must be finite",
+        ),
+        (lambda: tf.rotation_from_axis_angle(None), TypeError, "`rotvec` must be an array"),
+        (lambda: tf.rotation_from_axis_angle(jnp.ones(4)), ValueError, r"`rotvec` must have shape"),
+        (lambda: tf.rotation_from_quaternion(jnp.zeros(4)), ValueError, "`q` must be a non-zero"),
+        (lambda: tf.rotation_from_quaternion([1, 0, jnp.inf, 0]), ValueError, "`q` must be finite"),
+        (
+            lambda: tf.rotation_from_6d(jnp.array([1.0, 0, 0, 2, 0, 0])),
+            ValueError,
+            "linearly independent",
+        ),
+        (lambda: tf.rotation_from_6d(jnp.zeros(6)), ValueError, "`r6` must hold two linearly"),
+        (
+            lambda: tf.rotation_to_quaternion(2 * jnp.eye(3)),
+            ValueError,
+            "`matrix` must be a rotation",
+        ),
+        (lambda: tf.rotation_to_axis_angle(-jnp.eye(3)), ValueError, "`matrix` must be a rotation"),
+        (lambda: tf.rotation_matrix(jnp.zeros(3), "euler"), ValueError, "`representation` must be"),
+        (lambda: tf.translate([jnp.nan, 0.0]), ValueError, "`offset` must be finite"),
+        (lambda: tf.translate(None), TypeError, "`offset` must be an array"),
+        (lambda: tf.rotate(jnp.inf), ValueError, "`angle` must be finite"),
+        (lambda: tf.rotate_x(jnp.nan), ValueError, "`angle` must be finite"),
+        (lambda: tf.rotate_axis([0, 0, 1], jnp.nan), ValueError, "`angle` must be finite"),
+        (lambda: tf.rotate_axis([0, jnp.inf, 1], 1.0), ValueError, "`axis` must be finite"),
+        (lambda: tf.scale([1.0, jnp.nan]), ValueError, "`factors` must be finite"),
+        (lambda: tf.scale([1.0, 1.0], center=[0, jnp.inf]), ValueError, "`center` must be finite"),
+        (lambda: tf.shear(xy=jnp.nan), ValueError, "`xy` must be finite"),
+        (lambda: tf.linear(jnp.full((2, 2), jnp.inf)), ValueError, "`matrix` must be finite"),
+        (lambda: tf.reflect([0.0, jnp.nan]), ValueError, "`normal` must be finite"),
+        (lambda: tf.reflect([0.0, 1.0], point=[jnp.nan, 0]), ValueError, "`point` must be finite"),
+        (
+            lambda: tf.compose(jnp.eye(3), jnp.full((3, 3), jnp.nan)),
+            ValueError,
+            r"`matrices\[1\]` must be finite",
+        ),
+        (
+            lambda: tf.apply(jnp.eye(3), jnp.array([[jnp.nan, 0.0]])),
+            ValueError,
+            "`points` must be finite",
+        ),
+        (
+            lambda: tf.from_homogeneous(jnp.array([[jnp.inf, 0.0, 1.0]])),
+            ValueError,
+            "`points` must be finite",
+        ),
+        (
+            lambda: tf.window_to_viewport([0, 0, jnp.inf, 1], [0, 0, 1, 1]),
+            ValueError,
+            "`window` must be finite",
+        ),
+    ],
+)
+def test_bad_parameters_are_rejected_naming_the_argument(call, error, message):
+    with pytest.raises(error, match=message):
+        call()
+
+
+@pytest.mark.parametrize(
+    ("fn", "bad", "message"),
+    [
+        (tf.translate, jnp.array([jnp.nan, 0.0]), "`offset` must be finite"),
+        (tf.rotate, jnp.array(jnp.inf), "`angle` must be finite"),
+        (tf.rotation_from_axis_angle, jnp.array([0.0, jnp.nan, 0.0]), "`rotvec` must be finite"),
+        (tf.rotation_from_quaternion, jnp.zeros(4), "`q` must be a non-zero quaternion"),
+        (tf.rotation_from_6d, jnp.ones(6), "`r6` must hold two linearly independent"),
+        (
+            lambda m: tf.apply(m, jnp.ones((2, 2))),
+            jnp.full((3, 3), jnp.nan),
+            "`matrix` must be finite",
+        ),
+    ],
+)
+def test_bad_parameters_are_rejected_under_jit_with_the_same_message(fn, bad, message):
+    with pytest.raises(jax.errors.JaxRuntimeError) as info:
+        jax.jit(fn)(bad)
+    assert _checks.check_message(info.value).startswith(message)
+    with pytest.raises(ValueError, match=f"^{message}"):
+        _checks.checked_jit(fn)(bad)

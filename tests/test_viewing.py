@@ -159,7 +159,10 @@ def test_gradients(name):
 @pytest.mark.parametrize(
     ("call", "message"),
     [
-        (lambda: vw.look_at(jnp.zeros(3), jnp.zeros(3), jnp.array([0, 1.0, 0])), "target - eye"),
+        (
+            lambda: vw.look_at(jnp.zeros(3), jnp.zeros(3), jnp.array([0, 1.0, 0])),
+            "`target` equals `eye`",
+        ),
         (lambda: vw.look_at(jnp.zeros(3), jnp.array([0, 1.0, 0]), jnp.array([0, 1.0, 0])), "up"),
         (lambda: vw.look_at(jnp.zeros(2), jnp.ones(2), jnp.ones(2)), "eye"),
         (lambda: vw.orthographic(1.0, 0.0, 0.0, 1.0, 0.1, 1.0), "right"),
@@ -182,3 +185,168 @@ def test_bad_input_raises_clearly(call, message):
 def test_bad_value_raises_under_jit():
     with pytest.raises(Exception, match="near"):
         jax.jit(vw.perspective)(1.0, 1.0, -0.1, 1.0).block_until_ready()
+
+
+# --- cameras from rotation parametrisations (issue 18) ---------------------------------
+
+from gfxlab import _checks  # noqa: E402
+from gfxlab.fit import fit  # noqa: E402
+
+CUBE = jnp.array(
+    [[x, y, z] for x in (-1.0, 1.0) for y in (-1.0, 1.0) for z in (-1.0, 1.0)]
+) * jnp.array([1.0, 0.7, 0.4])
+
+
+@pytest.mark.parametrize("representation", ["axis_angle", "quaternion", "6d", "matrix"])
+def test_camera_from_rotation_equals_look_at(representation):
+    eye = jnp.array([2.0, 1.5, 4.0])
+    look = vw.Camera(eye, (0.0, 0.2, 0.0), (0.0, 1.0, 0.0), fov_y=0.9, near=0.5, far=20.0)
+    frame = jnp.swapaxes(look.view_matrix()[:3, :3], 0, 1)  # camera-to-world
+    values = {
+        "axis_angle": tf.rotation_to_axis_angle(frame),
+        "quaternion": tf.rotation_to_quaternion(frame),
+        "6d": tf.rotation_to_6d(frame),
+        "matrix": frame,
+    }[representation]
+    cam = vw.Camera.from_rotation(eye, values, representation, fov_y=0.9, near=0.5, far=20.0)
+    np.testing.assert_allclose(cam.view_matrix(), look.view_matrix(), atol=1e-12)
+    np.testing.assert_allclose(cam.project(CUBE), look.project(CUBE), atol=1e-12)
+    # target/up are derived for reference: the same viewing direction and up
+    direction = (look.target - look.eye) / jnp.linalg.norm(look.target - look.eye)
+    np.testing.assert_allclose(cam.target - cam.eye, direction, atol=1e-12)
+    assert cam.fixed_fields() == ("target", "up") and look.fixed_fields() == ()
+
+
+def test_zero_rotation_looks_down_minus_z_with_finite_gradients():
+    cam = vw.Camera.from_rotation(jnp.zeros(3), jnp.zeros(3))
+    np.testing.assert_allclose(cam.view_matrix(), np.eye(4), atol=1e-15)
+
+    def depth_of_point(rotvec):
+        c = vw.Camera.from_rotation(jnp.array([0.0, 0.0, 5.0]), rotvec)
+        return c.project(jnp.array([[0.3, 0.2, 0.0]]))[0]
+
+    check_grads(depth_of_point, (jnp.zeros(3),), order=1, modes=["rev", "fwd"])
+
+
+def test_fit_recovers_a_camera_rotation_and_holds_derived_fields():
+    eye = jnp.array([0.5, 0.5, 6.0])
+    truth = vw.Camera.from_rotation(eye, jnp.array([0.1, -0.15, 0.05]))
+    observed = truth.to_pixels(CUBE, (64, 64))
+    start = vw.Camera.from_rotation(eye, jnp.zeros(3))
+    result = fit(
+        lambda cam: cam.to_pixels(CUBE, (64, 64)) - observed,
+        start,
+        fixed=lambda leaf: leaf.ndim == 0,  # the lens; eye and rotation are fitted
+        max_steps=60,
+    )
+    np.testing.assert_allclose(result.params.rotation, truth.rotation, atol=1e-6)
+    np.testing.assert_allclose(result.params.eye, eye, atol=1e-6)
+    # target and up are derived from the rotation: fit holds them (fixed_fields)
+    np.testing.assert_array_equal(result.params.target, start.target)
+    np.testing.assert_array_equal(result.params.up, start.up)
+
+
+# --- bad camera parameters name the right argument (issue 17) --------------------------
+
+NAN, INF = float("nan"), float("inf")
+
+
+@pytest.mark.parametrize(
+    ("call", "error", "message"),
+    [
+        (lambda: vw.look_at([INF, 0, 0], [0, 0, 0], [0, 1, 0]), ValueError, "`eye` must be finite"),
+        (
+            lambda: vw.look_at([0, 0, 1], [0, NAN, 0], [0, 1, 0]),
+            ValueError,
+            "`target` must be finite",
+        ),
+        (lambda: vw.look_at([0, 0, 1], [0, 0, 0], [0, 0, 0]), ValueError, "`up` must be non-zero"),
+        (lambda: vw.look_at(None, [0, 0, 0], [0, 1, 0]), TypeError, "`eye` must be an array"),
+        (lambda: vw.Camera([0, 0, 5.0], near=-1.0), ValueError, "`near` must be positive"),
+        (
+            lambda: vw.Camera([0, 0, 5.0], near=2.0, far=1.0),
+            ValueError,
+            "`far` must be greater than `near`",
+        ),
+        (lambda: vw.Camera([0, 0, 5.0], fov_y=NAN), ValueError, "`fov_y` must be finite"),
+        (
+            lambda: vw.Camera([0, 0, 5.0], fov_y=4.0),
+            ValueError,
+            r"`fov_y` must be in \(0, 3.14159\)",
+        ),
+        (lambda: vw.Camera([0, 0, 5.0], aspect=0.0), ValueError, "`aspect` must be > 0"),
+        (lambda: vw.Camera([0, 0, 5.0], far=INF), ValueError, "`far` must be finite"),
+        (
+            lambda: vw.Camera([0, 0, 5.0], up=[0, 0, 1.0]),
+            ValueError,
+            "`up` must be non-zero and not parallel",
+        ),
+        (lambda: vw.Camera([0, 0, 0.0]), ValueError, "`target` equals `eye`"),
+        (lambda: vw.Camera([0, NAN, 5.0]), ValueError, "`eye` must be finite"),
+        (lambda: vw.Camera(None), TypeError, "`eye` must be an array"),
+        (lambda: vw.Camera([0, 0, 5.0], target=None), TypeError, "`target` must be an array"),
+        (
+            lambda: vw.Camera.from_rotation([0, 0, 5.0], [NAN, 0, 0]),
+            ValueError,
+            "`rotation` must be finite",
+        ),
+        (
+            lambda: vw.Camera.from_rotation([0, 0, 5.0], jnp.zeros(4), "quaternion"),
+            ValueError,
+            "`rotation` must be a non-zero quaternion",
+        ),
+        (
+            lambda: vw.Camera.from_rotation([0, 0, 5.0], jnp.zeros(3), "euler"),
+            ValueError,
+            "`representation` must be",
+        ),
+        (lambda: vw.perspective(1.0, 1.0, -1.0, 10.0), ValueError, "`near` must be positive"),
+        (lambda: vw.frustum(-1, 1, -1, 1, -1.0, 10.0), ValueError, "`near` must be positive"),
+        (lambda: vw.orthographic(0, 1, 0, 1, 0, NAN), ValueError, "`far` must be finite"),
+        (
+            lambda: vw.in_view_volume(jnp.zeros(3), tolerance=-1.0),
+            ValueError,
+            "`tolerance` must be >= 0",
+        ),
+        (
+            lambda: vw.in_view_volume(jnp.array([NAN, 0, 0])),
+            ValueError,
+            "`ndc_points` must be finite",
+        ),
+        (lambda: vw.ndc_to_pixels(jnp.zeros(2), (10**9, 10**9)), ValueError, "asks for"),
+        (lambda: vw.plane_projection(["z"]), ValueError, "`axis` must be 'x', 'y' or 'z'"),
+        (lambda: vw.orthographic_view(None), ValueError, "`name` must be one of"),
+    ],
+)
+def test_bad_camera_parameters_name_the_argument(call, error, message):
+    with pytest.raises(error, match=message):
+        call()
+
+
+@pytest.mark.parametrize(
+    ("fn", "bad", "message"),
+    [
+        (
+            lambda e: vw.look_at(e, jnp.zeros(3), jnp.array([0, 1.0, 0])),
+            jnp.array([INF, 0, 0]),
+            "`eye` must be finite",
+        ),
+        (lambda n: vw.perspective(1.0, 1.0, n, 10.0), jnp.array(-1.0), "`near` must be positive"),
+        (
+            lambda n: vw.Camera(jnp.array([0, 0, 5.0]), near=n).matrix(),
+            jnp.array(-1.0),
+            "`near` must be positive",
+        ),
+        (
+            lambda f: vw.Camera(jnp.array([0, 0, 5.0]), fov_y=f).matrix(),
+            jnp.array(NAN),
+            "`fov_y` must be finite",
+        ),
+    ],
+)
+def test_bad_camera_parameters_under_jit_same_message(fn, bad, message):
+    with pytest.raises(jax.errors.JaxRuntimeError) as info:
+        jax.jit(fn)(bad)
+    assert _checks.check_message(info.value).startswith(message)
+    with pytest.raises(ValueError, match=f"^{message}"):
+        _checks.checked_jit(fn)(bad)
