@@ -361,6 +361,8 @@ def gaussian_filter(
 
 def _check_sigma(sigma):
     """Finite, positive standard deviations: one or `(rows, cols)`; NumPy when concrete."""
+    if isinstance(sigma, int | float) and not isinstance(sigma, bool):
+        return np.float64(float_scalar(sigma, "sigma", low=0))
     arr = array_arg(sigma, "sigma", "a positive number or a pair (rows, cols)")
     if arr.shape not in ((), (1,), (2,)):
         raise ValueError(f"`sigma` must be a number or a pair (rows, cols), got shape {arr.shape}")

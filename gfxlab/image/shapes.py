@@ -62,7 +62,7 @@ def _points(value, name: str, what: str):
     check_shape(arr, name, (None, 2))
     if not is_traced(value):
         finite_arg(np.asarray(arr), name)
-    return arr
+    return jnp.asarray(arr)
 
 
 def _scalar(value, name: str, *, minimum: float = 0.0):
@@ -70,7 +70,7 @@ def _scalar(value, name: str, *, minimum: float = 0.0):
     check_shape(arr, name, ())
     if not is_traced(value) and not (np.isfinite(float(arr)) and float(arr) >= minimum):
         raise ValueError(f"`{name}` must be finite and >= {minimum:g}, got {value!r}")
-    return arr
+    return jnp.asarray(arr)
 
 
 class Polygon(eqx.Module):
@@ -132,7 +132,7 @@ def _center(value):
     check_shape(arr, "center", (2,))
     if not is_traced(value):
         finite_arg(np.asarray(arr), "center")
-    return arr
+    return jnp.asarray(arr)
 
 
 def _check_shapes(shapes) -> list:

@@ -8,6 +8,8 @@ when the value is concrete, so an eager call raises `ValueError` at once, and th
 
 from __future__ import annotations
 
+import math
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -15,21 +17,28 @@ import numpy as np
 from .._checks import is_traced, value_error_if
 
 
-def array_arg(x, name: str, what: str = "an array of numbers") -> jax.Array:
-    """`x` as a JAX array (a transfer, no computation); `None`, non-numbers and complex
-    values raise `TypeError` naming `name`."""
+def array_arg(x, name: str, what: str = "an array of numbers"):
+    """`x` as an array without computing anything: JAX arrays (and tracers) as they are,
+    anything else through `np.asarray`. `None`, strings, non-numbers and complex values
+    raise `TypeError` naming `name`."""
     if x is None:
         raise TypeError(f"`{name}` must be {what}, got None")
-    if isinstance(x, str | bytes):
+    if isinstance(x, jax.Array | np.ndarray):
+        arr = x
+    elif isinstance(x, str | bytes):
         raise TypeError(f"`{name}` must be {what}, got {type(x).__name__}")
-    try:
-        arr = jnp.asarray(x)
-    except (TypeError, ValueError) as err:
-        raise TypeError(f"`{name}` must be {what}, got {type(x).__name__}") from err
-    if not (jnp.issubdtype(arr.dtype, jnp.number) or arr.dtype == jnp.bool_):
-        raise TypeError(f"`{name}` must be {what}, got dtype {arr.dtype}")
-    if jnp.issubdtype(arr.dtype, jnp.complexfloating):
-        raise TypeError(f"`{name}` must be real, got dtype {arr.dtype}")
+    else:
+        try:
+            arr = np.asarray(x)
+        except (TypeError, ValueError) as err:
+            raise TypeError(f"`{name}` must be {what}, got {type(x).__name__}") from err
+    dtype = arr.dtype
+    if not (np.issubdtype(dtype, np.number) or dtype == np.bool_) or jnp.issubdtype(
+        dtype, jnp.complexfloating
+    ):
+        if jnp.issubdtype(dtype, jnp.complexfloating):
+            raise TypeError(f"`{name}` must be real, got dtype {dtype}")
+        raise TypeError(f"`{name}` must be {what}, got dtype {dtype}")
     return arr
 
 
@@ -67,6 +76,17 @@ def float_scalar(x, name: str, *, low=None, high=None, low_open=True, high_open=
         raise TypeError(f"`{name}` must be a real number, got None")
     if isinstance(x, bool) or isinstance(x, str | bytes):
         raise TypeError(f"`{name}` must be a real number, got {x!r}")
+    if isinstance(x, int | float):  # a Python number: check it without NumPy
+        if not math.isfinite(x):
+            raise ValueError(f"`{name}` must be finite (no NaN or inf)")
+        v = float(x)
+        if (low is not None and (v <= low if low_open else v < low)) or (
+            high is not None and (v >= high if high_open else v > high)
+        ):
+            raise ValueError(
+                f"`{name}` must be {_range_text(low, high, low_open, high_open)}, got {x!r}"
+            )
+        return x
     arr = array_arg(x, name, "a real number")
     if arr.ndim != 0:
         raise ValueError(f"`{name}` must be a scalar, got shape {tuple(arr.shape)}")
@@ -88,13 +108,15 @@ def range_check(x, name: str, *, low=None, high=None, low_open=True, high_open=F
             out = out | ((v >= high) if high_open else (v > high))
         return out
 
-    lo = "" if low is None else ("(" if low_open else "[") + f"{low}"
-    hi = "" if high is None else f"{high}" + (")" if high_open else "]")
-    if low is not None and high is not None:
-        what = f"in {lo}, {hi}"
-    elif low is not None:
-        what = f"{'>' if low_open else '>='} {low}"
-    else:
-        what = f"{'<' if high_open else '<='} {high}"
+    what = _range_text(low, high, low_open, high_open)
     shown = "" if is_traced(x) else f", got {np.asarray(x).tolist()}"
     return host_or_traced_check(x, bad, f"`{name}` must be {what}{shown}")
+
+
+def _range_text(low, high, low_open, high_open) -> str:
+    """`in (0, 1]`, `> 0`, `<= 1`, ... for error messages."""
+    if low is not None and high is not None:
+        return f"in {'(' if low_open else '['}{low}, {high}{')' if high_open else ']'}"
+    if low is not None:
+        return f"{'>' if low_open else '>='} {low}"
+    return f"{'<' if high_open else '<='} {high}"
