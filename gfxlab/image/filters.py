@@ -65,8 +65,10 @@ def _check_filter_image(image, name: str = "image") -> jax.Array:
 
 
 def _check_cval(cval, image: jax.Array):
-    """The border value of `mode="constant"`: a finite real scalar (may be traced)."""
-    return float_scalar(cval, "cval")
+    """The border value of `mode="constant"`: a finite real scalar (may be traced); a
+    Python number becomes a float, so ints and floats share one compiled program."""
+    cval = float_scalar(cval, "cval")
+    return float(cval) if isinstance(cval, int | float) else cval
 
 
 def _check_mode(mode) -> str:

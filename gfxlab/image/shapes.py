@@ -11,7 +11,7 @@ from __future__ import annotations
 import functools
 import os
 import pathlib
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 import equinox as eqx
 import jax
@@ -138,6 +138,8 @@ def _center(value):
 def _check_shapes(shapes) -> list:
     if isinstance(shapes, Polygon | Polyline | Circle):
         shapes = [shapes]
+    if shapes is None or isinstance(shapes, str | bytes) or not isinstance(shapes, Iterable):
+        raise TypeError(f"`shapes` must be a list of Polygon, Polyline or Circle, got {shapes!r}")
     shapes = list(shapes)
     for s in shapes:
         if not isinstance(s, Polygon | Polyline | Circle):
