@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
@@ -48,7 +49,7 @@ def supersample(
     return _supersample(fn, (height, width), factor)
 
 
-@jax.jit(static_argnums=(0, 1, 2))
+@eqx.filter_jit  # `fn` may be a plain function or a pytree (an `eqx.Module` with arrays)
 def _supersample(fn, shape, factor):
     return supersample_values(fn, shape, factor, jnp.result_type(float))
 
