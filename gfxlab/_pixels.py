@@ -28,7 +28,13 @@ __all__ = [
     "subpixel_offsets",
     "to_uint8",
     "to_float",
+    "MAX_IMAGE_SIDE",
+    "checked_shape",
 ]
+
+#: Largest height or width of an image that a function allocates from a static `shape`
+#: argument (a documented size limit: a larger value is refused before allocating).
+MAX_IMAGE_SIDE = 16384
 
 
 def pixel_to_index(xy: Int[Array, "*batch 2"], shape: tuple[int, int]) -> Int[Array, "*batch 2"]:
@@ -61,6 +67,20 @@ def index_to_pixel(rc: Int[Array, "*batch 2"], shape: tuple[int, int]) -> Int[Ar
     rc = jnp.asarray(rc)
     check_last_dim(rc, "rc", (2,), "array indices (row, col)")
     return jnp.stack([rc[..., 1], height - 1 - rc[..., 0]], axis=-1)
+
+
+def checked_shape(shape, name: str = "shape") -> tuple[int, int]:
+    """A static image shape `(H, W)` with both sides in `1..MAX_IMAGE_SIDE`.
+
+    Extra trailing entries (channels) are ignored. Raises `TypeError`/`ValueError`
+    naming `name` otherwise.
+    """
+    if shape is None:
+        raise TypeError(f"`{name}` must be an image shape (H, W), got None")
+    height, width = static_shape(shape, name)
+    for value, side in ((height, f"{name}[0]"), (width, f"{name}[1]")):
+        static_int(value, side, maximum=MAX_IMAGE_SIDE)
+    return height, width
 
 
 def image_extent(shape: tuple[int, int]) -> tuple[float, float, float, float]:

@@ -10,6 +10,7 @@ from jax.test_util import check_grads
 from matplotlib.path import Path
 
 from gfxlab import raster
+from gfxlab.raster import conics
 
 # --------------------------------------------------------------------------- pixels
 
@@ -132,9 +133,9 @@ def test_midpoint_circle_equals_skimage_every_radius_0_to_300():
 def test_circle_steps_equal_vectorized_for_all_radii():
     # The stepwise recurrence for every radius in one vmapped scan, against the closed form.
     radii = jnp.arange(301)
-    rows = jax.jit(jax.vmap(lambda r: raster._circle_trace_scan(r, 301)))(radii)
+    rows = jax.jit(jax.vmap(lambda r: conics._circle_trace_scan(r, 301)))(radii)
     xs = jnp.arange(302)
-    ys = jax.jit(jax.vmap(lambda r: raster._circle_octant_y(r, xs)))(radii)
+    ys = jax.jit(jax.vmap(lambda r: conics._circle_octant_y(r, xs)))(radii)
     rows, ys = np.asarray(rows), np.asarray(ys)
     for r in range(301):
         steps = int(np.sum(xs < ys[r]))
@@ -205,8 +206,8 @@ def test_ellipse_trace_matches_textbook_example():
 def test_ellipse_closed_form_equals_steps_on_a_grid():
     size = 48
     rx, ry = (g.ravel() for g in np.meshgrid(np.arange(1, size + 1), np.arange(1, size + 1)))
-    closed = jax.jit(jax.vmap(lambda a, b: raster._ellipse_closed_form(a, b, size + 1)))
-    steps = jax.jit(jax.vmap(lambda a, b: raster._ellipse_trace_scan(a, b, 2 * size + 2)))
+    closed = jax.jit(jax.vmap(lambda a, b: conics._ellipse_closed_form(a, b, size + 1)))
+    steps = jax.jit(jax.vmap(lambda a, b: conics._ellipse_trace_scan(a, b, 2 * size + 2)))
     points, valid = (np.asarray(v) for v in closed(rx, ry))
     rows = np.asarray(steps(rx, ry))
     for i in range(rx.size):

@@ -1,0 +1,47 @@
+"""Images: files and formats, raster versus vector, median and linear filters, noise.
+
+An image here is a raster: an array `(H, W)` (grey) or `(H, W, C)` (colour, C channels)
+of samples on the pixel grid. Inside differentiable code the samples are floats in
+[0, 1]; at the file boundary they are `uint8` (`read_image(..., as_float=False)`,
+`write_image`; the conversion is `gfxlab._pixels.to_uint8`). Pixel `(row, col)` has
+its centre at `(x, y) = (col, H - 1 - row)` (y up), as everywhere in gfxlab
+(`gfxlab.raster.pixel_to_index`).
+
+The submodules, all re-exported here:
+
+- `io`: `read_image`, `write_image` and `image_info` for PNG, JPEG, BMP, TIFF and GIF
+  through Pillow, imported only when a file is touched; `ImageFileError` for files
+  Pillow cannot read.
+- `shapes`: `Polygon`, `Polyline` and `Circle` describe vector shapes in pixel
+  coordinates; `write_svg` writes them as an SVG file and `rasterize_shapes` turns the
+  same shapes into pixels (supersampled coverage, with `gfxlab.raster`'s even-odd test
+  and supersampling), so the two can be compared.
+- `networks`: selection networks and `median` (a network, not a sort).
+- `filters`: `median_filter`, a non-linear rank filter computed with a pruned
+  sorting/selection network (compare-exchange = `minimum`/`maximum` of shifted views);
+  `mean_filter` and `gaussian_filter` are the linear filters to contrast it with. All
+  three match `scipy.ndimage` for every border mode.
+- `noise`: `value_noise` (gfxlab's one value noise), `gradient_noise`, `fractal_noise`.
+- `scenes`: `add_salt_and_pepper` and `synthetic_scene`, test pictures.
+
+Called eagerly, each function is one compiled call (checks in Python first).
+"""
+
+from __future__ import annotations
+
+from . import filters, io, networks, noise, scenes, shapes
+from .filters import *  # noqa: F403
+from .io import *  # noqa: F403
+from .networks import *  # noqa: F403
+from .noise import *  # noqa: F403
+from .scenes import *  # noqa: F403
+from .shapes import *  # noqa: F403
+
+__all__ = [
+    *io.__all__,
+    *shapes.__all__,
+    *networks.__all__,
+    *filters.__all__,
+    *noise.__all__,
+    *scenes.__all__,
+]
