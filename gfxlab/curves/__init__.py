@@ -27,7 +27,7 @@ from ._bspline import BSpline, bspline, bspline_basis
 from ._common import MAX_BSPLINE_DEGREE, MAX_CONTROL_POINTS, MAX_DEGREE, MAX_RESOLUTION
 from ._conics import Ellipse, circle, ellipse
 from ._fitting import chord_length_parameters, fit_bezier, fit_bspline, fit_ellipse
-from ._knots import clamped_knots, parameter_range, uniform_knots
+from ._knots import clamped_knots, parameter_range, periodic_breakpoints, uniform_knots
 from ._nurbs import NURBS, nurbs, nurbs_circle
 from ._patches import bezier_patch, patch_mesh, teapot, teapot_patches
 
@@ -43,6 +43,7 @@ __all__ = [
     "uniform_knots",
     "clamped_knots",
     "parameter_range",
+    "periodic_breakpoints",
     "bspline_basis",
     "bspline",
     "nurbs",

@@ -10,22 +10,31 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._checks import check_shape, common_float, static_int
+from .._checks import as_float, check_shape, common_float, static_int
 from ._bezier import _bernstein
 from ._common import (
     _control_points,
     _flat_parameters,
+    _not_finite,
+    _require,
     _safe_ratio,
     _unflatten,
 )
 from ._knots import (
+    _check_breakpoints,
     _check_degree,
     _check_in_range,
     _check_knots,
+    _knot_logits,
     _knots_for,
+    _knots_from_logits,
+    _periodic_knots,
+    _span_range,
     _spans,
+    _wrap_parameters,
     clamped_knots,
     parameter_range,
+    periodic_breakpoints,
 )
 
 
@@ -116,31 +125,50 @@ def bspline(
     u: Float[ArrayLike, " N"],
     *,
     knots: Float[ArrayLike, " n+p+1"] | None = None,
+    closed: bool = False,
 ) -> Float[Array, "*batch N d"]:
-    """A B-spline curve `P(u) = sum_i N_{i,p}(u) p_i`.
+    """A B-spline curve `P(u) = sum_i N_{i,p}(u) p_i`, open or closed (periodic).
 
     Each `u` touches only the `p + 1` control points of its knot span (local control).
     Evaluation converts every span to Bezier form once (blossoming by de Boor's
     algorithm, `O(n p^3)`), then per `u` does a branch-free binary search for the span
-    and a degree-`p` Bernstein evaluation: `O(N (log m + p d))`, fused by XLA. It equals
-    `bspline_basis(knots, degree, u) @ control_points` (the textbook Cox-de Boor form).
+    and a degree-`p` Bernstein evaluation: `O(N (log m + p d))`, one compiled program.
+    It equals `bspline_basis(knots, degree, u) @ control_points` (the textbook
+    Cox-de Boor form) and SciPy's `BSpline`.
+
+    A **closed** B-spline (`closed=True`) is the open one of the wrapped control points
+    `p_0..p_{n-1}, p_0..p_{p-1}` on the periodically extended breakpoints: a loop that is
+    `C^{p-1}` everywhere, including where it closes, and any `u` is taken modulo the
+    period (SciPy's `extrapolate="periodic"`).
 
     **Arguments:**
 
-    - `control_points`: `(..., n, d)`, with `n >= degree + 1`.
-    - `degree`: `p`, a static int (`p = 3` is the cubic B-spline; Hearn and Baker's
-      degree parameter `d` is `p + 1`).
-    - `u`: `(N,)` parameters in `parameter_range(knots, degree)` (any shape works).
-    - `knots`: `(n + p + 1,)` non-decreasing knots; default `clamped_knots(n, p)`, i.e.
-      `u` in `[0, 1]` and the curve interpolates its end points.
+    - `control_points`: `(..., n, d)`, with `n >= degree + 1`, finite.
+    - `degree`: `p`, a static int in `[0, MAX_BSPLINE_DEGREE]` (`p = 3` is the cubic
+      B-spline; Hearn and Baker's degree parameter `d` is `p + 1`).
+    - `u`: `(N,)` parameters in `parameter_range(knots, degree)` (any shape works); for
+      a closed curve any finite `u` (wrapped into the period).
+    - `knots`: open: `(n + p + 1,)` non-decreasing knots, default `clamped_knots(n, p)`
+      (`u` in `[0, 1]`, the curve interpolates its end points). Closed: the `(n + 1,)`
+      breakpoints `t_0 <= ... <= t_n` of one period, default uniform on `[0, 1]`.
+    - `closed`: a closed (periodic) curve.
 
     **Returns:** `(..., N, d)`.
 
     **Raises:** `ValueError` when the degree is too high for the number of control
-    points, the knots are decreasing or the wrong length, or `u` is out of range.
+    points, the knots are decreasing, non-finite or the wrong length, or `u` is out of
+    range or NaN (under `jit` through `equinox.error_if`); `TypeError` for `None` or a
+    non-int degree.
     """
     cp = _control_points(control_points)
     n, p = _check_degree(cp.shape[-2], degree)
+    if closed:
+        if knots is None:
+            knots = periodic_breakpoints(n, dtype=cp.dtype)
+        cp, knots, u = common_float(cp, knots, u, names=("control_points", "knots", "u"))
+        knots = _check_breakpoints(knots, n)
+        u = _require(u, "`u` must be finite (no NaN or inf)", _not_finite)
+        return _closed_kernel(cp, knots, u, p)
     if knots is None:
         knots = clamped_knots(n, p, dtype=cp.dtype)
     cp, knots, u = common_float(cp, knots, u, names=("control_points", "knots", "u"))
@@ -149,20 +177,19 @@ def bspline(
     return _bspline_kernel(cp, knots, u, p)
 
 
+@functools.partial(jax.jit, static_argnums=3)
+def _closed_kernel(cp: jax.Array, breaks: jax.Array, u: jax.Array, p: int) -> jax.Array:
+    wrapped = jnp.concatenate([cp, cp[..., :p, :]], axis=-2)
+    return _bspline_kernel(wrapped, _periodic_knots(breaks, p), _wrap_parameters(u, breaks), p)
+
+
+@functools.partial(jax.jit, static_argnums=3)
 def _bspline_kernel(cp: jax.Array, knots: jax.Array, u: jax.Array, p: int) -> jax.Array:
-    # Two compiled programs, search then evaluation: on CPU, XLA compiles the pair into
-    # code several times faster than the same work as a single program.
-    segment = _segment_kernel(knots, u, p, cp.shape[-2])
+    """`bspline` unchecked, one compiled program: span search, then evaluation."""
+    segment = (_spans(knots, p, cp.shape[-2], u.reshape(-1)) - p).astype(jnp.int32)
     return _bspline_from_segments(cp, knots, u, segment, p)
 
 
-@functools.partial(jax.jit, static_argnums=(2, 3))
-def _segment_kernel(knots: jax.Array, u: jax.Array, p: int, n: int) -> jax.Array:
-    """Index `s - p` of each `u`'s span among the spans `p..n-1`."""
-    return (_spans(knots, p, n, u.reshape(-1)) - p).astype(jnp.int32)
-
-
-@functools.partial(jax.jit, static_argnums=4)
 def _bspline_from_segments(cp, knots, u, segment, p: int) -> jax.Array:
     flat, shape = _flat_parameters(u)
     n = cp.shape[-2]
@@ -198,18 +225,30 @@ def _bspline_from_segments(cp, knots, u, segment, p: int) -> jax.Array:
 
 
 class BSpline(eqx.Module):
-    """A B-spline curve as a pytree.
+    """A B-spline curve as a pytree, open or closed.
 
-    **Fields:** `control_points` `(..., n, d)`, `knots` `(n + p + 1,)`, `degree` (static),
-    `fit_knots` (static). With `fit_knots=False` (default) the knots are held fixed
-    under differentiation (`lax.stop_gradient`), so fitting the module fits the control
-    points only; `fit_knots=True` lets gradients reach the knots too.
+    **Fields:**
+
+    - `control_points`: `(..., n, d)`, fitted by `gfxlab.fit`.
+    - `base_knots`: the knots as given (`(n + p + 1,)`; a closed curve's `(n + 1,)`
+      breakpoints), held fixed: `fixed_fields()` names it, and it is behind
+      `lax.stop_gradient` too.
+    - `knot_logits`: with `fit_knots=True`, the logs of the span widths inside the
+      parameter range, `(n - p,)` (closed: `(n,)`); `None` otherwise. The fitted knots
+      split the fixed range `[t_p, t_n]` in proportions `softmax(knot_logits)`, so they
+      stay increasing whatever the optimiser does (a monotone reparametrisation); the
+      range itself and the knots outside it stay fixed.
+    - `degree`, `fit_knots`, `closed`: static.
+
+    The property `knots` is the knot vector in use. Call with `u` `(N,)`.
     """
 
     control_points: Float[Array, "*batch n d"]
-    knots: Float[Array, " n+p+1"]
+    base_knots: Float[Array, " k"]
+    knot_logits: Float[Array, " s"] | None
     degree: int = eqx.field(static=True)
     fit_knots: bool = eqx.field(static=True)
+    closed: bool = eqx.field(static=True)
 
     def __init__(
         self,
@@ -218,16 +257,42 @@ class BSpline(eqx.Module):
         knots: Float[ArrayLike, " n+p+1"] | None = None,
         *,
         fit_knots: bool = False,
+        closed: bool = False,
     ):
         cp = _control_points(control_points)
-        self.knots, self.degree = _knots_for(cp, degree, knots)
+        self.closed = bool(closed)
+        if self.closed:
+            n, p = _check_degree(cp.shape[-2], degree)
+            if knots is None:
+                knots = periodic_breakpoints(n, dtype=cp.dtype)
+            knots = _check_breakpoints(as_float(knots, "knots"), n)
+            self.base_knots, self.degree = knots, p
+        else:
+            self.base_knots, self.degree = _knots_for(cp, degree, knots)
         self.control_points = cp
         self.fit_knots = bool(fit_knots)
+        a, b = _span_range(self.degree, cp.shape[-2], self.closed)
+        self.knot_logits = _knot_logits(self.base_knots, a, b) if self.fit_knots else None
+
+    def fixed_fields(self) -> tuple[str, ...]:
+        """Fields `gfxlab.fit` holds fixed: the given knots (with `fit_knots=True` the
+        knots move through `knot_logits` instead, which stays free)."""
+        return ("base_knots",)
+
+    @property
+    def knots(self) -> Float[Array, " k"]:
+        """The knots in use (a closed curve's breakpoints)."""
+        frame = jax.lax.stop_gradient(self.base_knots)
+        if self.knot_logits is None:
+            return frame
+        a, b = _span_range(self.degree, self.control_points.shape[-2], self.closed)
+        return _knots_from_logits(frame, self.knot_logits, a, b)
 
     @property
     def parameter_range(self) -> tuple[Float[Array, ""], Float[Array, ""]]:
-        return parameter_range(self.knots, self.degree)
+        if self.closed:
+            return self.base_knots[0], self.base_knots[-1]
+        return parameter_range(self.base_knots, self.degree)
 
     def __call__(self, u: Float[ArrayLike, " N"]) -> Float[Array, "*batch N d"]:
-        knots = self.knots if self.fit_knots else jax.lax.stop_gradient(self.knots)
-        return bspline(self.control_points, self.degree, u, knots=knots)
+        return bspline(self.control_points, self.degree, u, knots=self.knots, closed=self.closed)

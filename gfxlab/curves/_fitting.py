@@ -13,7 +13,7 @@ from jaxtyping import Array, ArrayLike, Float
 from .._checks import as_float, check_last_dim, check_shape, static_int
 from ._bezier import Bezier, _bezier_kernel
 from ._bspline import BSpline, _bspline_kernel
-from ._common import _check_unit_interval
+from ._common import _check_unit_interval, _not_finite, _require
 from ._conics import Ellipse
 from ._knots import _check_degree, _check_in_range, _check_knots, clamped_knots
 
@@ -21,8 +21,7 @@ from ._knots import _check_degree, _check_in_range, _check_knots, clamped_knots
 def chord_length_parameters(points: Float[ArrayLike, "N d"]) -> Float[Array, " N"]:
     """Parameters proportional to the cumulative chord length of a point sequence,
     from 0 to 1 (uniform when all points coincide)."""
-    points = as_float(points, "points")
-    check_shape(points, "points", (None, None))
+    points = _fit_points(points)
     if points.shape[0] < 2:
         raise ValueError(f"`points` must hold at least 2 points, got {points.shape[0]}")
     return _chord_length_kernel(points)
@@ -82,7 +81,7 @@ def _fit_curve(evaluate, start, points, parameters, lo, hi, correct, method, max
 def _fit_points(points, name="points") -> jax.Array:
     points = as_float(points, name)
     check_shape(points, name, (None, None))
-    return points
+    return _require(points, f"`{name}` must be finite (no NaN or inf)", _not_finite)
 
 
 def fit_bezier(

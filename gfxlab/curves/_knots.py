@@ -8,7 +8,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._checks import as_float, check_shape, is_traced, static_int
-from ._common import MAX_BSPLINE_DEGREE, MAX_CONTROL_POINTS, _float_dtype, _require
+from ._common import MAX_BSPLINE_DEGREE, MAX_CONTROL_POINTS, _float_dtype, _not_finite, _require
 
 
 def uniform_knots(num_control_points: int, degree: int, *, dtype=None) -> Float[Array, " m+1"]:
@@ -50,6 +50,7 @@ def _check_knots(knots: jax.Array, degree: int, num_control_points: int) -> jax.
             f"`knots` must have num_control_points + degree + 1 = {num_control_points} + "
             f"{degree} + 1 = {expected} entries, got {knots.shape[0]}"
         )
+    knots = _require(knots, "`knots` must be finite (no NaN or inf)", _not_finite)
     knots = _require(
         knots,
         "`knots` must be non-decreasing (t_0 <= t_1 <= ... <= t_m)",
@@ -84,23 +85,29 @@ def _check_in_range(
     return _require(
         u,
         f"`{name}` must lie in the B-spline's parameter range [t_p, t_n] (see `parameter_range`)",
-        lambda u, t: (u < t[degree]) | (u > t[n]),
+        lambda u, t: ~((u >= t[degree]) & (u <= t[n])),  # NaN is out of range too
         knots,
     )
 
 
 def _span_search(knots: jax.Array, u: jax.Array) -> jax.Array:
     """The largest `i` with `t_i <= u`, for sorted knots and `u >= t_0`: a branch-free
-    binary search made of scalar look-ups, which XLA fuses into a few passes over `u`."""
+    binary search of `log2(m)` halving steps.
+
+    The steps run in a `lax.fori_loop` on purpose: each step is one fused pass over `u`
+    (a scalar look-up, a compare, a select), and the loop keeps XLA from fusing the whole
+    search into its consumers, where it would be recomputed for every output element
+    (about 4x slower on CPU, measured in `tests/benchmarks/bench_curves.py`).
+    """
     m = knots.shape[0]
-    index = jnp.zeros(u.shape, jnp.int32)
-    step = 1 << (max(m - 1, 1).bit_length() - 1)
-    while step >= 1:
-        candidate = jnp.minimum(index + step, m - 1)
+    first = 1 << (max(m - 1, 1).bit_length() - 1)
+
+    def halve(k, index):
+        candidate = jnp.minimum(index + jnp.right_shift(first, k), m - 1)
         below = knots.at[candidate].get(mode="promise_in_bounds") <= u
-        index = jnp.where(below, candidate, index)
-        step //= 2
-    return index
+        return jnp.where(below, candidate, index)
+
+    return jax.lax.fori_loop(0, first.bit_length(), halve, jnp.zeros(u.shape, jnp.int32))
 
 
 def _spans(knots: jax.Array, degree: int, n: int, u: jax.Array) -> jax.Array:
@@ -122,3 +129,72 @@ def _knots_for(cp: jax.Array, degree: int, knots) -> tuple[jax.Array, int]:
     if not is_traced(knots):
         knots = _check_knots(knots, p, n)
     return knots, p
+
+
+# ----------------------------------------------------------------------------- closed
+
+
+def periodic_breakpoints(num_control_points: int, *, dtype=None) -> Float[Array, " n+1"]:
+    """Uniform breakpoints `0, 1/n, ..., 1` of a closed B-spline with `n` control points
+    (one period, `u` in `[0, 1]`)."""
+    n = static_int(num_control_points, "num_control_points", minimum=2, maximum=MAX_CONTROL_POINTS)
+    return jnp.linspace(0, 1, n + 1, dtype=_float_dtype(dtype))
+
+
+def _check_breakpoints(breaks: jax.Array, n: int) -> jax.Array:
+    """Checks of the `n + 1` breakpoints `t_0 <= ... <= t_n` of a closed B-spline."""
+    check_shape(breaks, "knots", (None,))
+    if breaks.shape[0] != n + 1:
+        raise ValueError(
+            f"`knots` of a closed B-spline are its num_control_points + 1 = {n + 1} "
+            f"breakpoints (one period), got {breaks.shape[0]}"
+        )
+    breaks = _require(breaks, "`knots` must be finite (no NaN or inf)", _not_finite)
+    breaks = _require(
+        breaks, "`knots` must be non-decreasing (t_0 <= ... <= t_n)", lambda t: t[1:] < t[:-1]
+    )
+    return _require(
+        breaks, "`knots` must span a positive period: t_n > t_0", lambda t: t[-1] <= t[0]
+    )
+
+
+def _periodic_knots(breaks: jax.Array, p: int) -> jax.Array:
+    """The `n + 2p + 1` knots of the open B-spline equal to a closed one: the period's
+    breakpoints with `p` spans copied on each side, shifted by the period `T = t_n - t_0`
+    (the control points wrap as `p_0..p_{n-1}, p_0..p_{p-1}`)."""
+    n = breaks.shape[0] - 1
+    period = breaks[n] - breaks[0]
+    return jnp.concatenate([breaks[n - p : n] - period, breaks, breaks[1 : p + 1] + period])
+
+
+def _wrap_parameters(u: jax.Array, breaks: jax.Array) -> jax.Array:
+    """`u` mapped into the period `[t_0, t_n)` (periodic extrapolation)."""
+    period = breaks[-1] - breaks[0]
+    return breaks[0] + jnp.mod(u - breaks[0], period)
+
+
+# ----------------------------------------------------------------------------- fitted knots
+
+
+def _span_range(degree: int, num_control_points: int, closed: bool) -> tuple[int, int]:
+    """Indices `(a, b)` of the knots bounding the parameter range: `(p, n)` for an open
+    B-spline's knots, `(0, n)` for a closed one's breakpoints."""
+    return (0, num_control_points) if closed else (degree, num_control_points)
+
+
+def _knot_logits(knots: jax.Array, a: int, b: int) -> jax.Array:
+    """Unconstrained parameters of the spans between knots `a` and `b`: the logs of their
+    widths (spans narrower than `1e-9` of the range are floored there)."""
+    widths = knots[a + 1 : b + 1] - knots[a:b]
+    floor = 1e-9 * (knots[b] - knots[a])
+    return jnp.log(jnp.maximum(widths, floor))
+
+
+def _knots_from_logits(frame: jax.Array, logits: jax.Array, a: int, b: int) -> jax.Array:
+    """The knots with interior `t_{a+1} .. t_{b-1}` set from span logits: the range
+    `[t_a, t_b]` split in proportions `softmax(logits)`. Every span is positive, so the
+    knots are increasing by construction whatever the logits (a monotone
+    reparametrisation); the ends `t_a`, `t_b` and the knots outside stay as in `frame`."""
+    fractions = jnp.cumsum(jax.nn.softmax(logits))[:-1]
+    interior = frame[a] + (frame[b] - frame[a]) * fractions
+    return jnp.concatenate([frame[: a + 1], interior, frame[b:]])

@@ -108,6 +108,10 @@ class NURBS(eqx.Module):
         self.weights = as_float(weights, "weights")
         self.fit_knots = bool(fit_knots)
 
+    def fixed_fields(self) -> tuple[str, ...]:
+        """Fields `gfxlab.fit` holds fixed: the knots, unless `fit_knots=True`."""
+        return () if self.fit_knots else ("knots",)
+
     @property
     def parameter_range(self) -> tuple[Float[Array, ""], Float[Array, ""]]:
         return parameter_range(self.knots, self.degree)
