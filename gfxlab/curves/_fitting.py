@@ -48,8 +48,10 @@ def _resample(points: jax.Array, parameters: jax.Array, count: int) -> jax.Array
 
 
 def _fit_curve(evaluate, start, points, parameters, lo, hi, correct, method, max_steps):
-    """Least-squares control points for fixed parameters, then (optionally) joint
-    Levenberg-Marquardt over control points and parameters (parameter correction).
+    """Least-squares control points for fixed parameters, then (optionally) parameter
+    correction: a few rounds of foot-point projection alternated with the linear
+    least-squares solve (Hoschek's iteration, cheap and one compiled call), finished by a
+    joint Levenberg-Marquardt over control points and parameters.
 
     `evaluate(control_points, parameters)` is an unchecked kernel: the inputs were
     validated by the caller, which keeps the compiled solver small."""
@@ -61,6 +63,8 @@ def _fit_curve(evaluate, start, points, parameters, lo, hi, correct, method, max
     result = fit(residuals, start, args=(parameters, points), method=method, max_steps=max_steps)
     cp = result.params
     if correct:
+        bounds = (jnp.asarray(lo, points.dtype), jnp.asarray(hi, points.dtype))
+        cp, parameters = _alternate(evaluate, cp, parameters, points, bounds)
 
         def joint_residuals(params, data):
             cp, t = params
@@ -76,6 +80,41 @@ def _fit_curve(evaluate, start, points, parameters, lo, hi, correct, method, max
         cp, parameters = result.params
         parameters = jnp.clip(parameters, lo, hi)
     return cp, parameters, result
+
+
+@functools.partial(jax.jit, static_argnums=(0, 5))
+def _alternate(evaluate, cp, t, data, bounds, rounds: int = 24):
+    """`rounds` of: move each parameter to its point's foot on the curve (one Newton
+    step), then re-solve the control points by linear least squares."""
+    eye = jnp.eye(cp.shape[-2], dtype=cp.dtype)  # evaluate(eye, t) is the basis matrix
+
+    def one_round(carry, _):
+        cp, t = carry
+        t = _foot_point_step(evaluate, cp, t, data, *bounds)
+        cp = jnp.linalg.lstsq(evaluate(eye, t), data)[0]
+        return (cp, t), None
+
+    (cp, t), _ = jax.lax.scan(one_round, (cp, t), None, length=rounds)
+    return cp, t
+
+
+def _foot_point_step(evaluate, cp, t, data, lo, hi):
+    """One Newton step on `<P(t_k) - x_k, P'(t_k)> = 0` for every `k` (each point depends
+    on its own parameter only, so forward-mode derivatives give `P'` and `P''`); where
+    the curvature term would make the step uphill, a Gauss-Newton step instead."""
+    ones = jnp.ones_like(t)
+
+    def with_tangent(s):
+        return jax.jvp(lambda v: evaluate(cp, v), (s,), (ones,))
+
+    (point, d1), (_, d2) = jax.jvp(with_tangent, (t,), (ones,))
+    r = point - data
+    gradient = jnp.sum(r * d1, axis=-1)
+    speed = jnp.sum(d1 * d1, axis=-1)
+    newton = speed + jnp.sum(r * d2, axis=-1)
+    curvature = jnp.where(newton > 0, newton, speed)
+    step = jnp.where(curvature > 0, gradient / jnp.where(curvature > 0, curvature, 1), 0)
+    return jnp.clip(t - step, lo, hi)
 
 
 def _fit_points(points, name="points") -> jax.Array:
