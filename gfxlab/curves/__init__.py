@@ -11,13 +11,24 @@ Conventions:
 - A Bezier curve lives on `0 <= u <= 1`. A B-spline of degree `p` with knots
   `t_0 <= ... <= t_m` and `n = m - p` control points lives on `t_p <= u <= t_n`
   (`parameter_range`). Parameters outside the range raise `ValueError` (at once for
-  concrete values, through `equinox.error_if` under `jit`).
+  concrete values, through `equinox.error_if` under `jit`). A closed B-spline
+  (`closed=True`) is periodic: any finite `u` is taken modulo its period.
+- NaN/inf inputs, `None` and oversized static sizes (`MAX_DEGREE`, `MAX_BSPLINE_DEGREE`,
+  `MAX_CONTROL_POINTS`, `MAX_RESOLUTION`) are clear errors naming the argument.
 
 Example:
     >>> import jax.numpy as jnp
     >>> from gfxlab import curves
     >>> abcd = jnp.array([[1, 1], [2, 3], [4, 3], [6, 4.0]])
-    >>> curves.bezier(abcd, jnp.array([0, 0.25, 0.5, 0.75, 1]))  # the seed's question
+    >>> curves.bezier(abcd, jnp.array([0.25, 0.5])).tolist()  # the seed's question
+    [[1.921875, 2.171875], [3.125, 2.875]]
+    >>> curves.bernstein(3, jnp.array([0.5])).tolist()
+    [[0.125, 0.375, 0.375, 0.125]]
+
+Package layout (private modules, one concept each): `_bezier` (the Bernstein basis,
+Bezier curves), `_knots` (knot vectors, span search, periodic breakpoints), `_bspline`,
+`_nurbs`, `_conics` (ellipse, circle), `_patches` (Bezier patches, the teapot as a
+`gfxlab.mesh.Mesh`), `_fitting`; everything public is imported here.
 """
 
 from __future__ import annotations
