@@ -57,10 +57,19 @@ def test_bezier_matches_bezier_package():
 def test_bernstein_closed_form():
     u = np.linspace(0, 1, 11)
     for n in range(0, 9):
-        expected = np.stack(
-            [[float(np.prod(range(n - i + 1, n + 1))) / np.prod(range(1, i + 1)) for i in
-              range(n + 1)]] * len(u)
-        ) * u[:, None] ** np.arange(n + 1) * (1 - u[:, None]) ** (n - np.arange(n + 1))
+        expected = (
+            np.stack(
+                [
+                    [
+                        float(np.prod(range(n - i + 1, n + 1))) / np.prod(range(1, i + 1))
+                        for i in range(n + 1)
+                    ]
+                ]
+                * len(u)
+            )
+            * u[:, None] ** np.arange(n + 1)
+            * (1 - u[:, None]) ** (n - np.arange(n + 1))
+        )
         np.testing.assert_allclose(curves.bernstein(n, u), expected, rtol=1e-13, atol=1e-15)
 
 
@@ -78,8 +87,9 @@ def test_bernstein_partition_of_unity_and_nonnegative(n, u):
 
 @settings(max_examples=25)
 @given(
-    points=hnp.arrays(np.float64, st.tuples(st.integers(2, 9), st.just(2)),
-                      elements=st.floats(-10, 10)),
+    points=hnp.arrays(
+        np.float64, st.tuples(st.integers(2, 9), st.just(2)), elements=st.floats(-10, 10)
+    ),
     u=hnp.arrays(np.float64, 10, elements=st.floats(0, 1)),
 )
 def test_bezier_convex_hull(points, u):
@@ -142,9 +152,7 @@ def test_derivative_matches_jax_derivative():
     tangent = jax.jit(jax.vmap(jax.jacfwd(lambda s: curves.bezier(cp, s))))(u)
     np.testing.assert_allclose(curves.bezier(curves.derivative(cp), u), tangent, atol=1e-12)
     second = jax.jit(jax.vmap(jax.jacfwd(jax.jacfwd(lambda s: curves.bezier(cp, s)))))(u)
-    np.testing.assert_allclose(
-        curves.bezier(curves.derivative(cp, order=2), u), second, atol=1e-11
-    )
+    np.testing.assert_allclose(curves.bezier(curves.derivative(cp, order=2), u), second, atol=1e-11)
 
 
 def test_bezier_gradients():
@@ -154,9 +162,14 @@ def test_bezier_gradients():
 
     @jax.jit
     def everything(c, v, t):  # one compiled check for all the Bezier functions
-        parts = [curves.bezier(c, v), curves.de_casteljau(c, v)[-2], curves.split(c, t)[1],
-                 curves.elevate_degree(c, times=2), curves.derivative(c),
-                 curves.bernstein(4, v)]
+        parts = [
+            curves.bezier(c, v),
+            curves.de_casteljau(c, v)[-2],
+            curves.split(c, t)[1],
+            curves.elevate_degree(c, times=2),
+            curves.derivative(c),
+            curves.bernstein(4, v),
+        ]
         return jnp.concatenate([part.ravel() for part in parts])
 
     check_grads(everything, (cp, u, jnp.array(0.4)), order=1, modes=["rev"])
@@ -223,7 +236,9 @@ def test_ellipse_matches_the_seed_equations(maybe_jit):
 def test_ellipse_gradients_and_bad_input():
     t = jnp.array([0.3, 1.9, 4.0])
     check_grads(
-        jax.jit(curves.ellipse), (jnp.array([1.0, 2.0]), jnp.array([2.0, 0.5]), 0.3, t), order=1,
+        jax.jit(curves.ellipse),
+        (jnp.array([1.0, 2.0]), jnp.array([2.0, 0.5]), 0.3, t),
+        order=1,
         modes=["rev"],
     )
     check_grads(jax.jit(curves.circle), (jnp.array([1.0, 2.0]), 1.5, t), order=1, modes=["rev"])

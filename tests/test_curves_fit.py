@@ -38,8 +38,9 @@ def test_fit_bspline_with_given_knots_and_parameters():
     knots = np.array([0, 0, 0, 0.2, 0.5, 0.6, 1, 1, 1.0]) * 2 + 1  # range [1, 3]
     u = 1 + 2 * np.linspace(0, 1, 40) ** 1.2
     reference = si.make_lsq_spline(u, points, knots, k=2).c
-    curve = curves.fit_bspline(points, 2, 6, knots=knots, parameters=u,
-                               method="levenberg_marquardt")
+    curve = curves.fit_bspline(
+        points, 2, 6, knots=knots, parameters=u, method="levenberg_marquardt"
+    )
     np.testing.assert_allclose(curve.control_points, reference, atol=1e-7)
 
 
@@ -48,8 +49,9 @@ def test_parameter_correction_reduces_the_error():
     s = np.sort(rng.uniform(0, 1, 50)) ** 2  # uneven sampling: chord length is off
     true = curves.bezier(jnp.array([[0, 0], [1, 2], [3, -1], [4, 1.0]]), s)
     points = np.asarray(true) + 1e-4 * rng.normal(size=(50, 2))
-    corrected, parameters, result = curves.fit_bezier(points, 3, correct_parameters=True,
-                                                      full_output=True)
+    corrected, parameters, result = curves.fit_bezier(
+        points, 3, correct_parameters=True, full_output=True
+    )
     # The chord-length least-squares fit it starts from, by NumPy.
     basis = np.asarray(curves.bernstein(3, curves.chord_length_parameters(points)))
     plain = basis @ np.linalg.lstsq(basis, points, rcond=None)[0]
@@ -81,8 +83,7 @@ def test_modules_fit_directly_with_gfxlab_fit():
     target = curves.bezier(jnp.array([[0, 0], [1, 2], [2, 0.0]]), u)
     start = curves.Bezier(jnp.zeros((3, 2)))
     result = fit(lambda c: c(u) - target, start, method="gauss_newton")
-    np.testing.assert_allclose(result.params.control_points, [[0, 0], [1, 2], [2, 0]],
-                               atol=1e-9)
+    np.testing.assert_allclose(result.params.control_points, [[0, 0], [1, 2], [2, 0]], atol=1e-9)
     # A BSpline fits its control points; its knots stay where they are.
     spline = curves.BSpline(jnp.zeros((5, 2)), 2)
     target = curves.bspline(jnp.arange(10.0).reshape(5, 2), 2, u)
@@ -111,5 +112,6 @@ def test_fit_bad_input():
         curves.chord_length_parameters(jnp.zeros((1, 2)))
     # Coincident points fall back to uniform parameters.
     np.testing.assert_allclose(curves.chord_length_parameters(jnp.ones((3, 2))), [0, 0.5, 1])
-    assert jax.numpy.all(jnp.isfinite(jax.grad(
-        lambda p: curves.chord_length_parameters(p).sum())(jnp.ones((3, 2)))))
+    assert jax.numpy.all(
+        jnp.isfinite(jax.grad(lambda p: curves.chord_length_parameters(p).sum())(jnp.ones((3, 2))))
+    )

@@ -1,0 +1,298 @@
+"""B-spline curves: the Cox-de Boor basis, fast evaluation through Bezier spans, `BSpline`."""
+
+from __future__ import annotations
+
+import functools
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float
+
+from .._checks import as_float, check_shape, common_float, static_int
+from ._bezier import _bernstein
+from ._common import (
+    _control_points,
+    _flat_parameters,
+    _not_finite,
+    _require,
+    _safe_ratio,
+    _unflatten,
+)
+from ._knots import (
+    _check_breakpoints,
+    _check_degree,
+    _check_in_range,
+    _check_knots,
+    _knot_logits,
+    _knots_for,
+    _knots_from_logits,
+    _periodic_knots,
+    _span_range,
+    _spans,
+    _wrap_parameters,
+    clamped_knots,
+    parameter_range,
+    periodic_breakpoints,
+)
+
+
+def _bezier_segments(cp: jax.Array, knots: jax.Array, p: int) -> jax.Array:
+    """The Bezier control points of every span `[t_s, t_{s+1}]`, `s = p..n-1`:
+    `(..., n-p, p+1, d)`.
+
+    Bezier point `k` of span `s` is the blossom of the curve at `k` copies of `t_{s+1}`
+    and `p - k` copies of `t_s`, evaluated by de Boor's algorithm (level `r` blends
+    `d_i = (1 - a) d_{i-1} + a d_i`, `a = (x_r - t_i) / (t_{i+p+1-r} - t_i)` with the
+    `r`-th blossom argument `x_r`), vectorized over spans and `k`. For a non-empty span
+    every denominator covers `[t_s, t_{s+1}]`, so it is positive; empty spans get
+    finite values that are never used.
+    """
+    n = cp.shape[-2]
+    s = np.arange(p, n)
+    window = knots[s[:, None] + np.arange(-p, p + 1)]  # window[:, l] = t_{s-p+l}
+    t_s, t_s1 = window[:, p], window[:, p + 1]
+    k = np.arange(p + 1)
+    d = cp[..., s[:, None] + np.arange(-p, 1), :][..., :, None, :, :]  # (..., S, 1, p+1, d)
+    for r in range(1, p + 1):
+        x = jnp.where(r <= k, t_s1[:, None], t_s[:, None])  # (S, p+1): argument r per k
+        lo = window[:, r : p + 1]
+        hi = window[:, p + 1 : 2 * p + 2 - r]
+        a = _safe_ratio(x[:, :, None] - lo[:, None, :], (hi - lo)[:, None, :])[..., None]
+        d = (1 - a) * d[..., :-1, :] + a * d[..., 1:, :]
+    return d[..., 0, :]
+
+
+def bspline_basis(
+    knots: Float[ArrayLike, " m+1"], degree: int, u: Float[ArrayLike, " N"]
+) -> Float[Array, "N n"]:
+    """All B-spline basis functions `N_{i,p}(u)`, `i = 0..n-1` (`n = m - p`), by the
+    Cox-de Boor recursion
+
+    `N_{i,0}(u) = 1 if t_i <= u < t_{i+1} else 0`,
+    `N_{i,k}(u) = (u - t_i) / (t_{i+k} - t_i) N_{i,k-1}(u)
+    + (t_{i+k+1} - u) / (t_{i+k+1} - t_{i+1}) N_{i+1,k-1}(u)` (with `0/0 = 0`),
+
+    vectorized over `u` and all knot spans and unrolled over `k = 1..p`. At the right
+    end `u = t_n` the last non-empty span counts as containing `u`, so the functions
+    sum to one on the closed range.
+
+    **Arguments:**
+
+    - `knots`: `(m+1,)` non-decreasing knots (repeats allowed), traced.
+    - `degree`: `p`, a static int with `p <= m - 1`.
+    - `u`: `(N,)` parameters in `parameter_range(knots, degree)` (any shape `U` works).
+
+    **Returns:** `(N, n)` (or `(*U, n)`).
+    """
+    knots, u = common_float(knots, u, names=("knots", "u"))
+    check_shape(knots, "knots", (None,))
+    p = static_int(degree, "degree", minimum=0)
+    if knots.shape[0] < p + 2:
+        raise ValueError(
+            f"`degree` {p} is too high for {knots.shape[0]} knots: a B-spline of degree p "
+            "needs at least p + 2 knots (p + 1 control points)"
+        )
+    n = knots.shape[0] - p - 1
+    knots = _check_knots(knots, p, n)
+    u = _check_in_range(u, knots, p, n)
+    return _bspline_basis_kernel(knots, u, p)
+
+
+@functools.partial(jax.jit, static_argnums=2)
+def _bspline_basis_kernel(knots: jax.Array, u: jax.Array, p: int) -> jax.Array:
+    flat, shape = _flat_parameters(u)
+    m = knots.shape[0] - 1
+    n = m - p
+    uu = flat[:, None]
+    basis = jax.nn.one_hot(_spans(knots, p, n, flat), m, dtype=flat.dtype)  # N_{i,0}
+    for k in range(1, p + 1):
+        count = m - k  # functions N_{i,k}, i = 0..m-k-1
+        t_i = knots[:count]
+        t_ik = knots[k : k + count]
+        t_i1 = knots[1 : 1 + count]
+        t_ik1 = knots[k + 1 : k + 1 + count]
+        rising = _safe_ratio(uu - t_i, t_ik - t_i)
+        falling = _safe_ratio(t_ik1 - uu, t_ik1 - t_i1)
+        basis = rising * basis[:, :-1] + falling * basis[:, 1:]
+    return _unflatten(basis, shape, 0)
+
+
+def bspline(
+    control_points: Float[ArrayLike, "*batch n d"],
+    degree: int,
+    u: Float[ArrayLike, " N"],
+    *,
+    knots: Float[ArrayLike, " n+p+1"] | None = None,
+    closed: bool = False,
+) -> Float[Array, "*batch N d"]:
+    """A B-spline curve `P(u) = sum_i N_{i,p}(u) p_i`, open or closed (periodic).
+
+    Each `u` touches only the `p + 1` control points of its knot span (local control).
+    Evaluation converts every span to Bezier form once (blossoming by de Boor's
+    algorithm, `O(n p^3)`), then per `u` does a branch-free binary search for the span
+    and a degree-`p` Bernstein evaluation: `O(N (log m + p d))`, one compiled program.
+    It equals `bspline_basis(knots, degree, u) @ control_points` (the textbook
+    Cox-de Boor form) and SciPy's `BSpline`.
+
+    A **closed** B-spline (`closed=True`) is the open one of the wrapped control points
+    `p_0..p_{n-1}, p_0..p_{p-1}` on the periodically extended breakpoints: a loop that is
+    `C^{p-1}` everywhere, including where it closes, and any `u` is taken modulo the
+    period (SciPy's `extrapolate="periodic"`).
+
+    **Arguments:**
+
+    - `control_points`: `(..., n, d)`, with `n >= degree + 1`, finite.
+    - `degree`: `p`, a static int in `[0, MAX_BSPLINE_DEGREE]` (`p = 3` is the cubic
+      B-spline; Hearn and Baker's degree parameter `d` is `p + 1`).
+    - `u`: `(N,)` parameters in `parameter_range(knots, degree)` (any shape works); for
+      a closed curve any finite `u` (wrapped into the period).
+    - `knots`: open: `(n + p + 1,)` non-decreasing knots, default `clamped_knots(n, p)`
+      (`u` in `[0, 1]`, the curve interpolates its end points). Closed: the `(n + 1,)`
+      breakpoints `t_0 <= ... <= t_n` of one period, default uniform on `[0, 1]`.
+    - `closed`: a closed (periodic) curve.
+
+    **Returns:** `(..., N, d)`.
+
+    **Raises:** `ValueError` when the degree is too high for the number of control
+    points, the knots are decreasing, non-finite or the wrong length, or `u` is out of
+    range or NaN (under `jit` through `equinox.error_if`); `TypeError` for `None` or a
+    non-int degree.
+    """
+    cp = _control_points(control_points)
+    n, p = _check_degree(cp.shape[-2], degree)
+    if closed:
+        if knots is None:
+            knots = periodic_breakpoints(n, dtype=cp.dtype)
+        cp, knots, u = common_float(cp, knots, u, names=("control_points", "knots", "u"))
+        knots = _check_breakpoints(knots, n)
+        u = _require(u, "`u` must be finite (no NaN or inf)", _not_finite)
+        return _closed_kernel(cp, knots, u, p)
+    if knots is None:
+        knots = clamped_knots(n, p, dtype=cp.dtype)
+    cp, knots, u = common_float(cp, knots, u, names=("control_points", "knots", "u"))
+    knots = _check_knots(knots, p, n)
+    u = _check_in_range(u, knots, p, n)
+    return _bspline_kernel(cp, knots, u, p)
+
+
+@functools.partial(jax.jit, static_argnums=3)
+def _closed_kernel(cp: jax.Array, breaks: jax.Array, u: jax.Array, p: int) -> jax.Array:
+    wrapped = jnp.concatenate([cp, cp[..., :p, :]], axis=-2)
+    return _bspline_kernel(wrapped, _periodic_knots(breaks, p), _wrap_parameters(u, breaks), p)
+
+
+@functools.partial(jax.jit, static_argnums=3)
+def _bspline_kernel(cp: jax.Array, knots: jax.Array, u: jax.Array, p: int) -> jax.Array:
+    """`bspline` unchecked, one compiled program: span search, then evaluation."""
+    segment = (_spans(knots, p, cp.shape[-2], u.reshape(-1)) - p).astype(jnp.int32)
+    return _bspline_from_segments(cp, knots, u, segment, p)
+
+
+def _bspline_from_segments(cp, knots, u, segment, p: int) -> jax.Array:
+    flat, shape = _flat_parameters(u)
+    n = cp.shape[-2]
+    bezier_points = _bezier_segments(cp, knots, p)  # (..., n-p, p+1, d)
+    starts, ends = knots[p:n], knots[p + 1 : n + 1]
+    scale = _safe_ratio(jnp.ones_like(starts), ends - starts)
+
+    def look_up(table):  # 1-D gathers by span: cheap, and they fuse with the arithmetic
+        return table.at[segment].get(mode="promise_in_bounds")
+
+    x = (flat - look_up(starts)) * look_up(scale)  # local parameter in [0, 1]
+    basis = _bernstein(p, x)
+    weights = [basis[:, j] for j in range(p + 1)]
+    batch, dim = cp.shape[:-2], cp.shape[-1]
+    columns = bezier_points.reshape((-1,) + bezier_points.shape[-3:])  # (B, n-p, p+1, d)
+    if columns.shape[0] * dim <= 16:
+        out = jnp.stack(
+            [
+                jnp.stack(
+                    [
+                        sum(w * look_up(c[:, j, i]) for j, w in enumerate(weights))
+                        for i in range(dim)
+                    ],
+                    axis=-1,
+                )
+                for c in columns
+            ]
+        )
+    else:  # many curves at once: gather whole segments
+        rows = jnp.take(columns, segment, axis=1, mode="clip")  # (B, N, p+1, d)
+        out = jnp.einsum("jn,bnjd->bnd", jnp.stack(weights), rows)
+    return _unflatten(out.reshape(batch + flat.shape + (dim,)), shape, -2)
+
+
+class BSpline(eqx.Module):
+    """A B-spline curve as a pytree, open or closed.
+
+    **Fields:**
+
+    - `control_points`: `(..., n, d)`, fitted by `gfxlab.fit`.
+    - `base_knots`: the knots as given (`(n + p + 1,)`; a closed curve's `(n + 1,)`
+      breakpoints), held fixed: `fixed_fields()` names it, and it is behind
+      `lax.stop_gradient` too.
+    - `knot_logits`: with `fit_knots=True`, the logs of the span widths inside the
+      parameter range, `(n - p,)` (closed: `(n,)`); `None` otherwise. The fitted knots
+      split the fixed range `[t_p, t_n]` in proportions `softmax(knot_logits)`, so they
+      stay increasing whatever the optimiser does (a monotone reparametrisation); the
+      range itself and the knots outside it stay fixed.
+    - `degree`, `fit_knots`, `closed`: static.
+
+    The property `knots` is the knot vector in use. Call with `u` `(N,)`.
+    """
+
+    control_points: Float[Array, "*batch n d"]
+    base_knots: Float[Array, " k"]
+    knot_logits: Float[Array, " s"] | None
+    degree: int = eqx.field(static=True)
+    fit_knots: bool = eqx.field(static=True)
+    closed: bool = eqx.field(static=True)
+
+    def __init__(
+        self,
+        control_points: Float[ArrayLike, "*batch n d"],
+        degree: int,
+        knots: Float[ArrayLike, " n+p+1"] | None = None,
+        *,
+        fit_knots: bool = False,
+        closed: bool = False,
+    ):
+        cp = _control_points(control_points)
+        self.closed = bool(closed)
+        if self.closed:
+            n, p = _check_degree(cp.shape[-2], degree)
+            if knots is None:
+                knots = periodic_breakpoints(n, dtype=cp.dtype)
+            knots = _check_breakpoints(as_float(knots, "knots"), n)
+            self.base_knots, self.degree = knots, p
+        else:
+            self.base_knots, self.degree = _knots_for(cp, degree, knots)
+        self.control_points = cp
+        self.fit_knots = bool(fit_knots)
+        a, b = _span_range(self.degree, cp.shape[-2], self.closed)
+        self.knot_logits = _knot_logits(self.base_knots, a, b) if self.fit_knots else None
+
+    def fixed_fields(self) -> tuple[str, ...]:
+        """Fields `gfxlab.fit` holds fixed: the given knots (with `fit_knots=True` the
+        knots move through `knot_logits` instead, which stays free)."""
+        return ("base_knots",)
+
+    @property
+    def knots(self) -> Float[Array, " k"]:
+        """The knots in use (a closed curve's breakpoints)."""
+        frame = jax.lax.stop_gradient(self.base_knots)
+        if self.knot_logits is None:
+            return frame
+        a, b = _span_range(self.degree, self.control_points.shape[-2], self.closed)
+        return _knots_from_logits(frame, self.knot_logits, a, b)
+
+    @property
+    def parameter_range(self) -> tuple[Float[Array, ""], Float[Array, ""]]:
+        if self.closed:
+            return self.base_knots[0], self.base_knots[-1]
+        return parameter_range(self.base_knots, self.degree)
+
+    def __call__(self, u: Float[ArrayLike, " N"]) -> Float[Array, "*batch N d"]:
+        return bspline(self.control_points, self.degree, u, knots=self.knots, closed=self.closed)

@@ -1,0 +1,95 @@
+"""Conics: the parametric ellipse and circle, `Ellipse`."""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike, Float
+
+from .._checks import as_float, check_last_dim, check_shape, common_float
+from ._common import _flat_parameters, _unflatten
+
+
+def ellipse(
+    center: Float[ArrayLike, "*batch 2"],
+    radii: Float[ArrayLike, "*batch 2"],
+    angle: Float[ArrayLike, "*batch"],
+    t: Float[ArrayLike, " N"],
+) -> Float[Array, "*batch N 2"]:
+    """The parametric ellipse `x = h + a cos t, y = k + b sin t`, rotated by `angle`
+    about its centre `(h, k)`:
+    `(x, y) = (h, k) + R(angle) (a cos t, b sin t)`.
+
+    **Arguments:**
+
+    - `center`: `(h, k)`, `(..., 2)`.
+    - `radii`: `(a, b)`, the semi-axes along the (rotated) x and y axes, `(..., 2)`.
+    - `angle`: rotation in radians, `(...)`.
+    - `t`: parameters `(N,)`; `0 <= t < 2 pi` traces the ellipse once.
+
+    **Returns:** `(..., N, 2)`.
+    """
+    center, radii, angle, t = common_float(
+        center, radii, angle, t, names=("center", "radii", "angle", "t")
+    )
+    check_last_dim(center, "center", (2,), "the centre (h, k)")
+    check_last_dim(radii, "radii", (2,), "the semi-axes (a, b)")
+    return _ellipse_kernel(center, radii, angle, t)
+
+
+@jax.jit
+def _ellipse_kernel(center, radii, angle, t) -> jax.Array:
+    flat, shape = _flat_parameters(t)
+    local_x = radii[..., None, 0] * jnp.cos(flat)
+    local_y = radii[..., None, 1] * jnp.sin(flat)
+    c, s = jnp.cos(angle)[..., None], jnp.sin(angle)[..., None]
+    x = center[..., None, 0] + c * local_x - s * local_y
+    y = center[..., None, 1] + s * local_x + c * local_y
+    return _unflatten(jnp.stack([x, y], axis=-1), shape, -2)
+
+
+def circle(
+    center: Float[ArrayLike, "*batch 2"],
+    radius: Float[ArrayLike, "*batch"],
+    t: Float[ArrayLike, " N"],
+) -> Float[Array, "*batch N 2"]:
+    """The parametric circle `(h + r cos t, k + r sin t)`: an ellipse with `a = b = r`."""
+    radius = as_float(radius, "radius")
+    radii = jnp.stack([radius, radius], axis=-1)
+    return ellipse(center, radii, jnp.zeros_like(radius), t)
+
+
+class Ellipse(eqx.Module):
+    """The parametric ellipse of `ellipse` as a pytree.
+
+    **Fields:** `center` `(2,)`, `radii` `(2,)` (semi-axes `a`, `b`), `angle` (radians).
+    Call with `t` `(N,)` to get `(N, 2)` points.
+    """
+
+    center: Float[Array, "2"]
+    radii: Float[Array, "2"]
+    angle: Float[Array, ""]
+
+    def __init__(self, center, radii, angle=0.0):
+        self.center, self.radii, self.angle = common_float(
+            center, radii, angle, names=("center", "radii", "angle")
+        )
+        check_shape(self.center, "center", (2,))
+        check_shape(self.radii, "radii", (2,))
+        check_shape(self.angle, "angle", ())
+
+    def __call__(self, t: Float[ArrayLike, " N"]) -> Float[Array, "N 2"]:
+        return ellipse(self.center, self.radii, self.angle, t)
+
+    def normalized(self) -> Ellipse:
+        """The same point set with `a >= b >= 0` and `angle` in `[0, pi)`."""
+        return Ellipse(self.center, *_normalized_axes(self.radii, self.angle))
+
+
+@jax.jit
+def _normalized_axes(radii: jax.Array, angle: jax.Array) -> tuple[jax.Array, jax.Array]:
+    a, b = jnp.abs(radii[0]), jnp.abs(radii[1])
+    swap = b > a
+    radii = jnp.where(swap, jnp.stack([b, a]), jnp.stack([a, b]))
+    return radii, jnp.mod(angle + jnp.where(swap, jnp.pi / 2, 0.0), jnp.pi)

@@ -1,0 +1,121 @@
+"""Rational B-splines (NURBS): evaluation, the exact circle, `NURBS`."""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike, Float
+
+from .._checks import as_float, check_shape, common_float
+from ._bspline import _bspline_kernel
+from ._common import _control_points, _require
+from ._knots import (
+    _check_degree,
+    _check_in_range,
+    _check_knots,
+    _knots_for,
+    clamped_knots,
+    parameter_range,
+)
+
+
+def nurbs(
+    control_points: Float[ArrayLike, "*batch n d"],
+    weights: Float[ArrayLike, "*batch n"],
+    degree: int,
+    u: Float[ArrayLike, " N"],
+    *,
+    knots: Float[ArrayLike, " n+p+1"] | None = None,
+) -> Float[Array, "*batch N d"]:
+    """A rational B-spline (NURBS) `P(u) = sum_i N_{i,p}(u) w_i p_i / sum_i N_{i,p}(u) w_i`:
+    a B-spline of the homogeneous points `(w_i p_i, w_i)` followed by the divide, so
+    conics such as circles are exact (`nurbs_circle`).
+
+    **Arguments:** as `bspline`, plus `weights` `(..., n)`, all positive.
+
+    **Returns:** `(..., N, d)`.
+    """
+    cp = _control_points(control_points)
+    cp, weights = common_float(cp, weights, names=("control_points", "weights"))
+    if weights.shape != cp.shape[:-1]:
+        raise ValueError(
+            f"`weights` must have shape {tuple(cp.shape[:-1])} (one per control point), "
+            f"got {tuple(weights.shape)}"
+        )
+    weights = _require(weights, "`weights` must all be positive", lambda w: w <= 0)
+    n, p = _check_degree(cp.shape[-2], degree)
+    if knots is None:
+        knots = clamped_knots(n, p, dtype=cp.dtype)
+    cp, weights, knots, u = common_float(
+        cp, weights, knots, u, names=("control_points", "weights", "knots", "u")
+    )
+    knots = _check_knots(knots, p, n)
+    u = _check_in_range(u, knots, p, n)
+    return _nurbs_kernel(cp, weights, knots, u, p)
+
+
+@functools.partial(jax.jit, static_argnums=4)
+def _nurbs_kernel(cp, weights, knots, u, p: int) -> jax.Array:
+    homogeneous = jnp.concatenate([cp * weights[..., None], weights[..., None]], axis=-1)
+    h = _bspline_kernel(homogeneous, knots, u, p)
+    return h[..., :-1] / h[..., -1:]
+
+
+def nurbs_circle(
+    center: Float[ArrayLike, "2"] = (0.0, 0.0), radius: Float[ArrayLike, ""] = 1.0
+) -> NURBS:
+    """An exact circle as a quadratic NURBS: nine control points on the corners and edge
+    midpoints of the circumscribed square, weights `1, 1/sqrt(2), 1, ...`, knots
+    `0,0,0, 1/4,1/4, 1/2,1/2, 3/4,3/4, 1,1,1` (four 90-degree arcs).
+
+    **Returns:** a `NURBS` on `u` in `[0, 1]`, starting and ending at
+    `center + (radius, 0)` and running counter-clockwise (not at constant speed).
+    """
+    center, radius = common_float(center, radius, names=("center", "radius"))
+    check_shape(center, "center", (2,))
+    check_shape(radius, "radius", ())
+    square = jnp.array(
+        [[1, 0], [1, 1], [0, 1], [-1, 1], [-1, 0], [-1, -1], [0, -1], [1, -1], [1, 0]],
+        dtype=center.dtype,
+    )
+    corner = math.sqrt(0.5)
+    weights = jnp.array([1, corner, 1, corner, 1, corner, 1, corner, 1], dtype=center.dtype)
+    knots = jnp.array([0, 0, 0, 0.25, 0.25, 0.5, 0.5, 0.75, 0.75, 1, 1, 1], dtype=center.dtype)
+    return NURBS(center + radius * square, weights, 2, knots)
+
+
+class NURBS(eqx.Module):
+    """A rational B-spline as a pytree (see `nurbs`); knots are held fixed under
+    differentiation unless `fit_knots=True`.
+
+    **Fields:** `control_points` `(..., n, d)`, `weights` `(..., n)`, `knots`, `degree`.
+    """
+
+    control_points: Float[Array, "*batch n d"]
+    weights: Float[Array, "*batch n"]
+    knots: Float[Array, " n+p+1"]
+    degree: int = eqx.field(static=True)
+    fit_knots: bool = eqx.field(static=True)
+
+    def __init__(self, control_points, weights, degree: int, knots=None, *, fit_knots=False):
+        cp = _control_points(control_points)
+        self.knots, self.degree = _knots_for(cp, degree, knots)
+        self.control_points = cp
+        self.weights = as_float(weights, "weights")
+        self.fit_knots = bool(fit_knots)
+
+    def fixed_fields(self) -> tuple[str, ...]:
+        """Fields `gfxlab.fit` holds fixed: the knots, unless `fit_knots=True`."""
+        return () if self.fit_knots else ("knots",)
+
+    @property
+    def parameter_range(self) -> tuple[Float[Array, ""], Float[Array, ""]]:
+        return parameter_range(self.knots, self.degree)
+
+    def __call__(self, u: Float[ArrayLike, " N"]) -> Float[Array, "*batch N d"]:
+        knots = self.knots if self.fit_knots else jax.lax.stop_gradient(self.knots)
+        return nurbs(self.control_points, self.weights, self.degree, u, knots=knots)
