@@ -103,45 +103,8 @@ def _q1f(q: Question) -> Answer:
     ]
     values = {"region_codes": codes}
     for name in ("AD", "EI"):
-        segment = jnp.array([example[name[0]], example[name[1]]], float)
-        trace = clipping.cohen_sutherland_trace(segment, jnp.asarray(window))
-        rows = tuple(
-            (
-                i + 1,
-                cell(s["p0"]),
-                cell(s["p1"]),
-                format(s["code0"], "04b"),
-                format(s["code1"], "04b"),
-                format(s["and"], "04b"),
-                format(s["or"], "04b"),
-                s["action"],
-                s["edge"] or "-",
-                cell(s["new_point"]) if s["new_point"] is not None else "-",
-            )
-            for i, s in enumerate(trace)
-        )
-        steps.append(
-            Step(
-                f"Segment {name}: {name[0]}{tuple(example[name[0]])} to "
-                f"{name[1]}{tuple(example[name[1]])}",
-                Table(
-                    (
-                        "iter",
-                        "p0",
-                        "p1",
-                        "code0",
-                        "code1",
-                        "AND",
-                        "OR",
-                        "action",
-                        "edge",
-                        "new point",
-                    ),
-                    rows,
-                ),
-            )
-        )
-        values[name] = trace
+        step, values[name] = _clip_segment(example, window, name)
+        steps.append(step)
     return Answer(
         q,
         summary=(
@@ -169,6 +132,35 @@ def _q1f(q: Question) -> Answer:
         "gfxlab.clipping.cohen_sutherland_trace, gfxlab.clipping.cohen_sutherland.",
         figure=lambda: _figure_clip(example, window, values),
     )
+
+
+_TRACE_COLUMNS = ("iter", "p0", "p1", "code0", "code1", "AND", "OR", "action", "edge", "new point")
+
+
+def _clip_segment(example, window, name):
+    """Cohen-Sutherland on the seed's segment `name` ("AD"): the step and its trace."""
+    import jax.numpy as jnp
+
+    from gfxlab import clipping
+
+    segment = jnp.array([example[name[0]], example[name[1]]], float)
+    trace = clipping.cohen_sutherland_trace(segment, jnp.asarray(window))
+    rows = tuple(
+        (
+            i + 1,
+            cell(s["p0"]),
+            cell(s["p1"]),
+            *(format(s[key], "04b") for key in ("code0", "code1", "and", "or")),
+            s["action"],
+            s["edge"] or "-",
+            cell(s["new_point"]) if s["new_point"] is not None else "-",
+        )
+        for i, s in enumerate(trace)
+    )
+    title = (
+        f"Segment {name}: {name[0]}{tuple(example[name[0]])} to {name[1]}{tuple(example[name[1]])}"
+    )
+    return Step(title, Table(_TRACE_COLUMNS, rows)), trace
 
 
 def _figure_clip(example, window, values):
