@@ -556,7 +556,7 @@ def line_spectrum(
 # --------------------------------------------------------------------------- metamers
 
 
-def _colour_matrix(wl: jax.Array) -> jax.Array:
+def _cmf_matrix(wl: jax.Array) -> jax.Array:
     """The `(3, N)` matrix A with `spectrum_to_xyz(wl, s) == K_M * A @ s`."""
     return (cmfs(wl) * _cell_widths(wl)[:, None]).T
 
@@ -573,7 +573,7 @@ def fundamental_metamer(
     **Returns:** `(..., N)` the fundamental metamer (same XYZ as `spd`).
     """
     wl, s = _promote(wavelengths, spd)
-    a = _colour_matrix(wl)
+    a = _cmf_matrix(wl)
     coeffs = jnp.linalg.solve(a @ a.T, jnp.matmul(s, a.T)[..., None])[..., 0]
     return jnp.matmul(coeffs, a)
 
@@ -598,7 +598,7 @@ def metameric_black_basis(wavelengths: Float[Array, " N"]) -> Float[Array, "N N-
     wl = _check_wavelengths(wavelengths)
     if wl.shape[0] <= 3:
         raise ValueError("`wavelengths` needs more than 3 samples to have metameric blacks")
-    _, _, vt = jnp.linalg.svd(_colour_matrix(wl), full_matrices=True)
+    _, _, vt = jnp.linalg.svd(_cmf_matrix(wl), full_matrices=True)
     return vt[3:].T
 
 
