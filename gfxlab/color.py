@@ -41,7 +41,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float
 
-from ._checks import as_float, check_last_dim, check_shape, is_traced, value_error_if
+from ._checks import check_last_dim, check_shape, finite_float, is_traced, value_error_if
 
 __all__ = [
     "K_M",
@@ -135,7 +135,7 @@ def _tables() -> dict[str, np.ndarray]:
 
 
 def _check_wavelengths(wavelengths, name: str = "wavelengths") -> jax.Array:
-    wl = as_float(wavelengths, name)
+    wl = finite_float(wavelengths, name)
     if wl.ndim != 1 or wl.shape[0] < 2:
         raise ValueError(
             f"`{name}` must be a 1-D grid of at least 2 wavelengths in nm, got shape "
@@ -218,7 +218,7 @@ def _cell_widths(wl: jax.Array) -> jax.Array:
 
 
 def _spectrum(spd, wl: jax.Array, name: str = "spd") -> jax.Array:
-    s = as_float(spd, name)
+    s = finite_float(spd, name)
     if s.ndim == 0 or s.shape[-1] != wl.shape[0]:
         raise ValueError(
             f"`{name}` must have shape (..., {wl.shape[0]}) to match `wavelengths`, got shape "
@@ -290,7 +290,7 @@ def xyz_to_xy(
 
     **Returns:** `(..., 2)` xy.
     """
-    xyz = as_float(xyz, "xyz")
+    xyz = finite_float(xyz, "xyz")
     check_last_dim(xyz, "xyz", (3,), "CIE XYZ")
     total = jnp.sum(xyz, axis=-1, keepdims=True)
     black = total == 0
@@ -308,11 +308,12 @@ def xy_to_xyz(xy: Float[Array, "*batch 2"], luminance=1.0) -> Float[Array, "*bat
 
     **Returns:** `(..., 3)` XYZ.
     """
-    xy = as_float(xy, "xy")
+    xy = finite_float(xy, "xy")
     check_last_dim(xy, "xy", (2,), "chromaticity (x, y)")
     xy = value_error_if(xy, xy[..., 1] <= 0, "`xy` must have y > 0")
     x, y = xy[..., 0], xy[..., 1]
-    big_y = jnp.broadcast_to(jnp.asarray(luminance, xy.dtype), x.shape)
+    big_y = finite_float(luminance, "luminance").astype(xy.dtype)
+    big_y = jnp.broadcast_to(big_y, x.shape)
     return jnp.stack([x * big_y / y, big_y, (1.0 - x - y) * big_y / y], axis=-1)
 
 
@@ -330,7 +331,7 @@ def spectral_locus(wavelengths=None) -> Float[Array, "N 2"]:
 
 def srgb_encode(linear: Float[Array, "..."]) -> Float[Array, "..."]:
     """The sRGB transfer function (IEC 61966-2-1): linear light to encoded values."""
-    lin = as_float(linear, "linear")
+    lin = finite_float(linear, "linear")
     power = lin > _SRGB_LINEAR_LIMIT
     safe = jnp.where(power, lin, 1.0)
     return jnp.where(power, 1.055 * safe ** (1 / 2.4) - 0.055, 12.92 * lin)
@@ -338,7 +339,7 @@ def srgb_encode(linear: Float[Array, "..."]) -> Float[Array, "..."]:
 
 def srgb_decode(encoded: Float[Array, "..."]) -> Float[Array, "..."]:
     """The inverse sRGB transfer function: encoded values to linear light."""
-    enc = as_float(encoded, "encoded")
+    enc = finite_float(encoded, "encoded")
     power = enc > 12.92 * _SRGB_LINEAR_LIMIT
     safe = jnp.where(power, enc, 1.0)
     return jnp.where(power, ((safe + 0.055) / 1.055) ** 2.4, enc / 12.92)
@@ -358,7 +359,7 @@ def xyz_to_srgb(xyz: Float[Array, "*batch 3"], *, encode: bool = True) -> Float[
 
     **Returns:** `(..., 3)` RGB.
     """
-    xyz = as_float(xyz, "xyz")
+    xyz = finite_float(xyz, "xyz")
     check_last_dim(xyz, "xyz", (3,), "CIE XYZ")
     rgb = jnp.matmul(xyz, jnp.asarray(_XYZ_TO_SRGB, xyz.dtype).T)
     return srgb_encode(rgb) if encode else rgb
@@ -374,7 +375,7 @@ def srgb_to_xyz(rgb: Float[Array, "*batch 3"], *, encoded: bool = True) -> Float
 
     **Returns:** `(..., 3)` XYZ.
     """
-    rgb = as_float(rgb, "rgb")
+    rgb = finite_float(rgb, "rgb")
     check_last_dim(rgb, "rgb", (3,), "sRGB")
     lin = srgb_decode(rgb) if encoded else rgb
     return jnp.matmul(lin, jnp.asarray(_SRGB_TO_XYZ, rgb.dtype).T)
@@ -400,7 +401,12 @@ def luminous_flux(
 
     **Returns:** `(...)` luminous flux in lm.
     """
-    wl, s = _promote(wavelengths, spd)
+    return _luminous_flux(wavelengths, spd, "spd", k_m)
+
+
+def _luminous_flux(wavelengths, spd, name: str, k_m=K_M) -> jax.Array:
+    wl, s = _promote(wavelengths, spd, name)
+    k_m = finite_float(k_m, "k_m").astype(s.dtype)
     return k_m * jnp.trapezoid(v_lambda(wl) * s, wl, axis=-1)
 
 
@@ -419,7 +425,7 @@ def luminance(
 
     **Returns:** `(...)` luminance in cd/m^2.
     """
-    return luminous_flux(wavelengths, radiance)
+    return _luminous_flux(wavelengths, radiance, "radiance")
 
 
 def luminous_efficiency(
@@ -466,7 +472,7 @@ def luminous_efficacy(
     """
     if radiant_power is None:
         return K_M * luminous_efficiency(wavelengths, spd)
-    power = as_float(radiant_power, "radiant_power")
+    power = finite_float(radiant_power, "radiant_power")
     power = value_error_if(power, power <= 0, "`radiant_power` must be positive")
     return luminous_flux(wavelengths, spd) / power
 
@@ -487,9 +493,9 @@ def planck(
 
     **Returns:** `(*batch, N)` spectral radiance.
     """
-    wl = as_float(wavelengths, "wavelengths")
+    wl = finite_float(wavelengths, "wavelengths")
     check_shape(wl, "wavelengths", (None,))
-    t = as_float(temperature, "temperature")
+    t = finite_float(temperature, "temperature")
     dtype = jnp.result_type(wl, t)
     wl, t = wl.astype(dtype), t.astype(dtype)
     wl = value_error_if(wl, wl <= 0, "`wavelengths` must be positive (nanometres)")
@@ -508,7 +514,7 @@ def planck_total_radiance(temperature: Float[Array, "*batch"]) -> Float[Array, "
     Uses the same constants as `planck` (`sigma / pi = pi^3 c1 / (15 c2^4)`), so it is
     the integral of `planck` from 0 to infinity.
     """
-    t = as_float(temperature, "temperature")
+    t = finite_float(temperature, "temperature")
     t = value_error_if(t, t <= 0, "`temperature` must be positive (kelvin)")
     return jnp.pi**3 * _C1 / (15.0 * _C2**4) * t**4
 
@@ -532,7 +538,7 @@ def line_spectrum(
     **Returns:** `(N,)` spectral density (power per nm).
     """
     wl = _check_wavelengths(wavelengths)
-    centre = as_float(line_wavelength, "line_wavelength").astype(wl.dtype)
+    centre = finite_float(line_wavelength, "line_wavelength").astype(wl.dtype)
     check_shape(centre, "line_wavelength", ())
     centre = value_error_if(
         centre,
@@ -544,13 +550,13 @@ def line_spectrum(
     hat = jnp.zeros_like(wl).at[i].add(1.0 - t).at[i + 1].add(t)
     half_gaps = 0.5 * jnp.diff(wl)
     trapezoid_weights = jnp.zeros_like(wl).at[:-1].add(half_gaps).at[1:].add(half_gaps)
-    return as_float(power, "power").astype(wl.dtype) * hat / trapezoid_weights
+    return finite_float(power, "power").astype(wl.dtype) * hat / trapezoid_weights
 
 
 # --------------------------------------------------------------------------- metamers
 
 
-def _colour_matrix(wl: jax.Array) -> jax.Array:
+def _cmf_matrix(wl: jax.Array) -> jax.Array:
     """The `(3, N)` matrix A with `spectrum_to_xyz(wl, s) == K_M * A @ s`."""
     return (cmfs(wl) * _cell_widths(wl)[:, None]).T
 
@@ -567,7 +573,7 @@ def fundamental_metamer(
     **Returns:** `(..., N)` the fundamental metamer (same XYZ as `spd`).
     """
     wl, s = _promote(wavelengths, spd)
-    a = _colour_matrix(wl)
+    a = _cmf_matrix(wl)
     coeffs = jnp.linalg.solve(a @ a.T, jnp.matmul(s, a.T)[..., None])[..., 0]
     return jnp.matmul(coeffs, a)
 
@@ -592,7 +598,7 @@ def metameric_black_basis(wavelengths: Float[Array, " N"]) -> Float[Array, "N N-
     wl = _check_wavelengths(wavelengths)
     if wl.shape[0] <= 3:
         raise ValueError("`wavelengths` needs more than 3 samples to have metameric blacks")
-    _, _, vt = jnp.linalg.svd(_colour_matrix(wl), full_matrices=True)
+    _, _, vt = jnp.linalg.svd(_cmf_matrix(wl), full_matrices=True)
     return vt[3:].T
 
 
@@ -637,7 +643,19 @@ def metameric_match(
 
     The tolerance is relative to the largest tristimulus value of the pair, so black
     matches black.
+
+    **Arguments:**
+
+    - `wavelengths`: `(N,)` strictly increasing, in nm.
+    - `spd_a`, `spd_b`: `(..., N)` the two spectra.
+    - `rtol`: relative tolerance, finite and >= 0.
+
+    **Returns:** `(...)` booleans.
     """
+    _promote(wavelengths, spd_a, "spd_a")
+    _promote(wavelengths, spd_b, "spd_b")
+    rtol = finite_float(rtol, "rtol")
+    rtol = value_error_if(rtol, rtol < 0, "`rtol` must be >= 0")
     xyz_a = spectrum_to_xyz(wavelengths, spd_a)
     xyz_b = spectrum_to_xyz(wavelengths, spd_b)
     scale = jnp.maximum(jnp.maximum(jnp.abs(xyz_a), jnp.abs(xyz_b)).max(axis=-1), 1e-300)

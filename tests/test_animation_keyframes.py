@@ -39,8 +39,14 @@ def test_linear_and_step_match_numpy_and_scipy():
     for c in range(2):
         np.testing.assert_allclose(ours[:, c], np.interp(t, TIMES, VALUES[:, c]), atol=1e-12)
     step = A.interpolate(TIMES, VALUES, t, method="step")
-    ref = scipy.interpolate.interp1d(TIMES, VALUES, kind="previous", axis=0,
-                                     bounds_error=False, fill_value=(VALUES[0], VALUES[-1]))(t)
+    ref = scipy.interpolate.interp1d(
+        TIMES,
+        VALUES,
+        kind="previous",
+        axis=0,
+        bounds_error=False,
+        fill_value=(VALUES[0], VALUES[-1]),
+    )(t)
     np.testing.assert_allclose(step, ref, atol=1e-12)
 
 
@@ -48,8 +54,9 @@ def test_catmull_rom_matches_scipy_hermite_and_is_c1():
     t = np.linspace(0, 4.5, 211)
     tangents = A.catmull_rom_tangents(TIMES, VALUES)
     ref = scipy.interpolate.CubicHermiteSpline(TIMES, VALUES, tangents, axis=0)(t)
-    np.testing.assert_allclose(A.interpolate(TIMES, VALUES, t, method="catmull_rom"), ref,
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        A.interpolate(TIMES, VALUES, t, method="catmull_rom"), ref, atol=1e-12
+    )
     # Catmull-Rom interior tangent is the centred difference.
     np.testing.assert_allclose(tangents[1], (VALUES[2] - VALUES[0]) / (TIMES[2] - TIMES[0]))
     # C1: one-sided derivatives agree at interior keys.
@@ -101,10 +108,17 @@ def test_bezier_method_per_segment_easing():
 def test_check_grads_interpolation():
     t = jnp.array([0.3, 1.7, 3.1])
     for method in ("linear", "catmull_rom", "bezier"):
-        check_grads(lambda v, s, m=method: A.interpolate(TIMES, v, s, method=m),
-                    (VALUES, t), order=1, modes=["rev", "fwd"])
-    check_grads(lambda u: A.cubic_bezier_easing(u, (0.3, 0.1, 0.7, 0.9)),
-                (jnp.array([0.2, 0.5, 0.8]),), order=1)
+        check_grads(
+            lambda v, s, m=method: A.interpolate(TIMES, v, s, method=m),
+            (VALUES, t),
+            order=1,
+            modes=["rev", "fwd"],
+        )
+    check_grads(
+        lambda u: A.cubic_bezier_easing(u, (0.3, 0.1, 0.7, 0.9)),
+        (jnp.array([0.2, 0.5, 0.8]),),
+        order=1,
+    )
 
 
 def test_interpolation_bad_inputs():
@@ -123,8 +137,7 @@ def test_interpolation_bad_inputs():
     with pytest.raises(ValueError, match="control"):
         A.cubic_bezier_easing(0.5, "bouncy")
     with pytest.raises(Exception, match="strictly increasing"):  # eqx.error_if under jit
-        jax.block_until_ready(jax.jit(A.interpolate)(jnp.array([0.0, 2.0, 1.0]), jnp.zeros(3),
-                                                     0.5))
+        jax.block_until_ready(jax.jit(A.interpolate)(jnp.array([0.0, 2.0, 1.0]), jnp.zeros(3), 0.5))
     with pytest.raises(ValueError, match="strictly increasing"):
         A.catmull_rom_tangents(jnp.array([1.0, 0.0]), jnp.zeros(2))
 
@@ -136,19 +149,26 @@ def test_quaternions_match_scipy():
     q, r = _random_quats(0, 8), _random_quats(1, 8)
     np.testing.assert_allclose(A.quat_to_matrix(q), _to_scipy(q).as_matrix(), atol=1e-12)
     prod = A.quat_multiply(q, r)
-    np.testing.assert_allclose(A.quat_to_matrix(prod), (_to_scipy(q) * _to_scipy(r)).as_matrix(),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        A.quat_to_matrix(prod), (_to_scipy(q) * _to_scipy(r)).as_matrix(), atol=1e-12
+    )
     axis, angle = np.array([1.0, 2.0, -0.5]), 0.7
     np.testing.assert_allclose(
         A.quat_to_matrix(A.quat_from_axis_angle(axis, angle)),
-        Rotation.from_rotvec(axis / np.linalg.norm(axis) * angle).as_matrix(), atol=1e-12)
+        Rotation.from_rotvec(axis / np.linalg.norm(axis) * angle).as_matrix(),
+        atol=1e-12,
+    )
     rotvec = np.array([[0.3, -0.2, 0.9], [0.0, 0.0, 0.0]])
-    np.testing.assert_allclose(A.quat_to_matrix(A.quat_from_rotvec(rotvec)),
-                               Rotation.from_rotvec(rotvec).as_matrix(), atol=1e-12)
+    np.testing.assert_allclose(
+        A.quat_to_matrix(A.quat_from_rotvec(rotvec)),
+        Rotation.from_rotvec(rotvec).as_matrix(),
+        atol=1e-12,
+    )
     pts = np.random.default_rng(2).normal(size=(5, 3))
     np.testing.assert_allclose(A.quat_rotate(q[0], pts), _to_scipy(q[0]).apply(pts), atol=1e-12)
-    np.testing.assert_allclose(A.quat_exp(A.quat_log(q)) * np.sign(q[:, :1]),
-                               q * np.sign(q[:, :1]), atol=1e-12)
+    np.testing.assert_allclose(
+        A.quat_exp(A.quat_log(q)) * np.sign(q[:, :1]), q * np.sign(q[:, :1]), atol=1e-12
+    )
 
 
 @given(st.integers(0, 10_000), st.floats(0.0, 1.0))
@@ -176,8 +196,7 @@ def test_slerp_matches_scipy_and_same_axis_angles():
     same = A.quat_from_axis_angle(axis, 0.3)
     np.testing.assert_allclose(A.slerp(same, same, 0.4), same, atol=1e-12)
     assert jnp.all(jnp.isfinite(jax.jacfwd(lambda u: A.slerp(same, same, u))(0.4)))
-    check_grads(lambda a, u: A.slerp(q[0], a, u), (jnp.asarray(q[1]), 0.3), order=1,
-                modes=["rev"])
+    check_grads(lambda a, u: A.slerp(q[0], a, u), (jnp.asarray(q[1]), 0.3), order=1, modes=["rev"])
 
 
 def test_rotation_keys_slerp_and_squad():
@@ -189,6 +208,7 @@ def test_rotation_keys_slerp_and_squad():
     t = jnp.linspace(0, 3.5, 50)
     squad = A.interpolate_rotations(times, quats, t, method="squad")
     np.testing.assert_allclose(jnp.linalg.norm(squad, axis=-1), 1.0, atol=1e-9)
+
     # squad is C1 at interior keys (slerp is not).
     # squad is C1 in time at interior keys (uneven spacing too); slerp is not.
     def velocity(method, s):
@@ -229,23 +249,29 @@ def test_tracks_vectorized_over_tracks_and_times(maybe_jit):
     rng = np.random.default_rng(3)
     b, k = 3, 5
     times = np.sort(rng.uniform(0, 4, (b, k)), axis=-1)
-    track = A.Track(times=jnp.asarray(times), position=jnp.asarray(rng.normal(size=(b, k, 3))),
-                    rotation=jnp.asarray(_random_quats(4, b * k).reshape(b, k, 4)),
-                    scale=jnp.asarray(rng.uniform(0.5, 2, (b, k, 3))),
-                    colour=jnp.asarray(rng.uniform(0, 1, (b, k, 3))), method="catmull_rom")
+    track = A.Track(
+        times=jnp.asarray(times),
+        position=jnp.asarray(rng.normal(size=(b, k, 3))),
+        rotation=jnp.asarray(_random_quats(4, b * k).reshape(b, k, 4)),
+        scale=jnp.asarray(rng.uniform(0.5, 2, (b, k, 3))),
+        colour=jnp.asarray(rng.uniform(0, 1, (b, k, 3))),
+        method="catmull_rom",
+    )
     t = jnp.linspace(0, 4, 11)
     sample = maybe_jit(lambda tr, s: tr(s))(track, t)
     assert sample.position.shape == (b, 11, 3) and sample.rotation.shape == (b, 11, 4)
     for i in range(b):
         np.testing.assert_allclose(
-            sample.position[i], A.interpolate(times[i], track.position[i], t,
-                                              method="catmull_rom"), atol=1e-12)
+            sample.position[i],
+            A.interpolate(times[i], track.position[i], t, method="catmull_rom"),
+            atol=1e-12,
+        )
         np.testing.assert_allclose(
-            sample.rotation[i], A.interpolate_rotations(times[i], track.rotation[i], t),
-            atol=1e-12)
+            sample.rotation[i], A.interpolate_rotations(times[i], track.rotation[i], t), atol=1e-12
+        )
     m = sample.matrix()
     assert m.shape == (b, 11, 4, 4)
-    expected = (A.quat_to_matrix(sample.rotation) * sample.scale[..., None, :])
+    expected = A.quat_to_matrix(sample.rotation) * sample.scale[..., None, :]
     np.testing.assert_allclose(m[..., :3, :3], expected, atol=1e-12)
     np.testing.assert_allclose(m[..., :3, 3], sample.position, atol=1e-12)
 

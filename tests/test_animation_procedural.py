@@ -20,8 +20,14 @@ def test_particles_free_flight_matches_closed_form():
 
 
 def test_particles_bounce_on_plane_and_drag():
-    particles = A.emit(jax.random.key(0), 64, origin=jnp.array([0.0, 1.0]),
-                       direction=jnp.array([1.0, 1.0]), speed=4.0, rate=200.0)
+    particles = A.emit(
+        jax.random.key(0),
+        64,
+        origin=jnp.array([0.0, 1.0]),
+        direction=jnp.array([1.0, 1.0]),
+        speed=4.0,
+        rate=200.0,
+    )
     assert jnp.allclose(particles.birth[1] - particles.birth[0], 1 / 200)
     floor = (jnp.array([[0.0, 1.0]]), jnp.array([0.0]))
     ps, vs = A.simulate_particles(particles, steps=300, dt=0.01, planes=floor, restitution=0.6)
@@ -55,8 +61,9 @@ def test_spring_pair_frequency_and_integrators_agree():
     pos = jnp.array([[0.0, 0.0], [1.2, 0.0]])
     kw = dict(steps=n, dt=dt, stiffness=k, damping=0.0, rest_length=jnp.array([1.0]))
     for integrator in ("semi_implicit_euler", "verlet"):
-        xs = A.simulate_springs(pos, jnp.zeros((2, 2)), A.chain_springs(2),
-                                integrator=integrator, **kw)
+        xs = A.simulate_springs(
+            pos, jnp.zeros((2, 2)), A.chain_springs(2), integrator=integrator, **kw
+        )
         stretch = xs[:, 1, 0] - xs[:, 0, 0] - 1.0
         exact = 0.2 * jnp.cos(jnp.sqrt(2 * k) * dt * jnp.arange(n + 1))
         np.testing.assert_allclose(stretch, exact, atol=5e-3)
@@ -66,9 +73,18 @@ def test_hanging_chain_pinned_and_settles():
     n = 6
     pos = jnp.stack([jnp.arange(n) * 0.5, jnp.zeros(n)], -1)
     pinned = jnp.arange(n) == 0
-    xs = A.simulate_springs(pos, jnp.zeros_like(pos), A.chain_springs(n), steps=3000, dt=0.005,
-                            stiffness=400.0, damping=2.0, gravity=jnp.array([0.0, -9.81]),
-                            pinned=pinned, integrator="verlet")
+    xs = A.simulate_springs(
+        pos,
+        jnp.zeros_like(pos),
+        A.chain_springs(n),
+        steps=3000,
+        dt=0.005,
+        stiffness=400.0,
+        damping=2.0,
+        gravity=jnp.array([0.0, -9.81]),
+        pinned=pinned,
+        integrator="verlet",
+    )
     np.testing.assert_allclose(xs[:, 0], jnp.zeros((3001, 2)), atol=1e-12)
     # at rest the chain hangs straight down below the pin
     np.testing.assert_allclose(xs[-1, :, 0], 0.0, atol=1e-2)
@@ -102,17 +118,26 @@ def test_noise_properties():
 
 def test_procedural_bad_inputs():
     with pytest.raises(ValueError, match="dt"):
-        A.simulate_particles(A.Particles(jnp.zeros((1, 2)), jnp.zeros((1, 2)), jnp.zeros(1)),
-                             steps=3, dt=-0.1)
+        A.simulate_particles(
+            A.Particles(jnp.zeros((1, 2)), jnp.zeros((1, 2)), jnp.zeros(1)), steps=3, dt=-0.1
+        )
     with pytest.raises(TypeError, match="steps"):
-        A.simulate_particles(A.Particles(jnp.zeros((1, 2)), jnp.zeros((1, 2)), jnp.zeros(1)),
-                             steps=2.5, dt=0.1)
+        A.simulate_particles(
+            A.Particles(jnp.zeros((1, 2)), jnp.zeros((1, 2)), jnp.zeros(1)), steps=2.5, dt=0.1
+        )
     with pytest.raises(ValueError, match="integrator"):
-        A.simulate_springs(jnp.zeros((2, 2)), jnp.zeros((2, 2)), A.chain_springs(2), steps=2,
-                           dt=0.1, integrator="rk4")
+        A.simulate_springs(
+            jnp.zeros((2, 2)),
+            jnp.zeros((2, 2)),
+            A.chain_springs(2),
+            steps=2,
+            dt=0.1,
+            integrator="rk4",
+        )
     with pytest.raises(ValueError, match="springs"):
-        A.simulate_springs(jnp.zeros((2, 2)), jnp.zeros((2, 2)), jnp.array([[0, 5]]), steps=2,
-                           dt=0.1)
+        A.simulate_springs(
+            jnp.zeros((2, 2)), jnp.zeros((2, 2)), jnp.array([[0, 5]]), steps=2, dt=0.1
+        )
     with pytest.raises(ValueError, match="x"):
         A.value_noise(jnp.zeros((4, 3)))
     with pytest.raises(ValueError, match="kind"):

@@ -20,8 +20,11 @@ def test_fk_2d_hand_computed_chain(maybe_jit):
     angles = jnp.array([0.3, 0.5, 0.0])
     pos = A.joint_positions(sk, A.pose_2d(angles))
     a1, a2 = 0.3, 0.8
-    hand = [[0, 0], [np.cos(a1), np.sin(a1)],
-            [np.cos(a1) + 2 * np.cos(a2), np.sin(a1) + 2 * np.sin(a2)]]
+    hand = [
+        [0, 0],
+        [np.cos(a1), np.sin(a1)],
+        [np.cos(a1) + 2 * np.cos(a2), np.sin(a1) + 2 * np.sin(a2)],
+    ]
     np.testing.assert_allclose(pos, hand, atol=1e-12)
 
 
@@ -34,8 +37,11 @@ def test_fk_3d_hand_computed_and_scipy():
     rv = np.random.default_rng(0).normal(size=(3, 3))
     pos = A.joint_positions(sk, A.pose_3d(rv))
     r0, r01 = Rotation.from_rotvec(rv[0]), Rotation.from_rotvec(rv[0]) * Rotation.from_rotvec(rv[1])
-    expected = [[0, 0, 1], r0.apply([1, 0, 0]) + [0, 0, 1],
-                r0.apply([1, 0, 0]) + r01.apply([1, 0, 0]) + [0, 0, 1]]
+    expected = [
+        [0, 0, 1],
+        r0.apply([1, 0, 0]) + [0, 0, 1],
+        r0.apply([1, 0, 0]) + r01.apply([1, 0, 0]) + [0, 0, 1],
+    ]
     np.testing.assert_allclose(pos, expected, atol=1e-12)
     # quaternion poses give the same
     q = A.quat_from_rotvec(rv)
@@ -64,12 +70,16 @@ def test_fk_vectorized_equals_joint_by_joint_loop_on_a_tree():
 
 def test_check_grads_fk():
     sk = A.chain(jnp.array([1.0, 0.7, 0.4]))
-    check_grads(lambda a: A.joint_positions(sk, A.pose_2d(a)), (jnp.array([0.2, -0.4, 0.9, 0.0]),),
-                order=1)
+    check_grads(
+        lambda a: A.joint_positions(sk, A.pose_2d(a)), (jnp.array([0.2, -0.4, 0.9, 0.0]),), order=1
+    )
     sk3 = A.chain(jnp.array([1.0, 0.5]), dim=3)
-    check_grads(lambda r: A.joint_positions(sk3, A.pose_3d(r)),
-                (jnp.array([[0.1, 0.2, 0.3], [0.0, -0.4, 0.2], [0.0, 0.0, 0.0]]),), order=1,
-                modes=["rev"])
+    check_grads(
+        lambda r: A.joint_positions(sk3, A.pose_3d(r)),
+        (jnp.array([[0.1, 0.2, 0.3], [0.0, -0.4, 0.2], [0.0, 0.0, 0.0]]),),
+        order=1,
+        modes=["rev"],
+    )
 
 
 def test_skeleton_bad_inputs():
@@ -114,8 +124,9 @@ def test_ik_reaches_reachable_target_3d():
 
 def _arm_mesh(n=40):
     x = jnp.linspace(0.0, 2.0, n)
-    return jnp.concatenate([jnp.stack([x, jnp.full(n, 0.2)], -1),
-                            jnp.stack([x, jnp.full(n, -0.2)], -1)])
+    return jnp.concatenate(
+        [jnp.stack([x, jnp.full(n, 0.2)], -1), jnp.stack([x, jnp.full(n, -0.2)], -1)]
+    )
 
 
 def test_lbs_identity_and_single_rigid_bone(maybe_jit):
@@ -129,12 +140,14 @@ def test_lbs_identity_and_single_rigid_bone(maybe_jit):
     pose = A.pose_2d(jnp.array([0.7, -1.1, 0.0]))
     mats = A.skinning_matrices(sk, pose)
     one = jnp.zeros_like(weights).at[:, 1].set(1.0)
-    np.testing.assert_allclose(maybe_jit(A.skin)(verts, one, mats), tf.apply(mats[1], verts),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        maybe_jit(A.skin)(verts, one, mats), tf.apply(mats[1], verts), atol=1e-12
+    )
     # The bone's matrix carries its start joint from rest to posed position.
     glob = A.forward_kinematics(sk, pose)
-    np.testing.assert_allclose(tf.apply(mats[1], sk.bone_segments()[1, 0]), glob[1, :2, 2],
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        tf.apply(mats[1], sk.bone_segments()[1, 0]), glob[1, :2, 2], atol=1e-12
+    )
 
 
 def test_lbs_matches_numpy_reference_3d_and_batches():
@@ -163,8 +176,10 @@ def test_check_grads_skinning():
     rng = np.random.default_rng(5)
     verts = jnp.asarray(rng.normal(size=(6, 2)))
     weights = jnp.asarray(rng.dirichlet(np.ones(3), size=6))
-    mats = tf.compose(tf.rotate(jnp.asarray(rng.normal(size=3))),
-                      tf.translate(jnp.asarray(rng.normal(size=(3, 2)))))
+    mats = tf.compose(
+        tf.rotate(jnp.asarray(rng.normal(size=3))),
+        tf.translate(jnp.asarray(rng.normal(size=(3, 2)))),
+    )
     check_grads(lambda v, m: A.skin(v, weights, m), (verts, mats), order=1)
 
 
@@ -194,11 +209,9 @@ def test_curve_deformer_circle_and_line():
     bent = A.curve_deform(shape, circle)
     # The x axis goes along the half circle by arc length; y becomes the inward offset.
     np.testing.assert_allclose(jnp.linalg.norm(bent, axis=-1), radius - shape[:, 1], atol=1e-4)
-    np.testing.assert_allclose(jnp.arctan2(bent[:, 1], bent[:, 0]), jnp.pi * shape[:, 0],
-                               atol=1e-4)
+    np.testing.assert_allclose(jnp.arctan2(bent[:, 1], bent[:, 0]), jnp.pi * shape[:, 0], atol=1e-4)
     # an explicit tangent gives the same as automatic differentiation
-    tangent = lambda u: radius * jnp.pi * jnp.stack([-jnp.sin(jnp.pi * u),
-                                                     jnp.cos(jnp.pi * u)], -1)
+    tangent = lambda u: radius * jnp.pi * jnp.stack([-jnp.sin(jnp.pi * u), jnp.cos(jnp.pi * u)], -1)
     np.testing.assert_allclose(A.curve_deform(shape, circle, tangent=tangent), bent, atol=1e-12)
     # A straight path of the same length along x leaves the shape unchanged (2D and 3D).
     line = A.bezier_path(jnp.array([[0.0, 0.0], [1.0 / 3, 0.0], [2.0 / 3, 0.0], [1.0, 0.0]]))

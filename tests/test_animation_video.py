@@ -18,8 +18,12 @@ T, H, W = 9, 31, 44  # odd height: the 4:2:0 codecs pad it
 def frames():
     yy, xx = np.mgrid[:H, :W]
     # a dot moving right, different in every frame
-    return np.stack([((xx - 4 * t - 4) ** 2 + (yy - 15) ** 2 < 30)[..., None]
-                     * np.array([1.0, 0.6, 0.2]) for t in range(T)])
+    return np.stack(
+        [
+            ((xx - 4 * t - 4) ** 2 + (yy - 15) ** 2 < 30)[..., None] * np.array([1.0, 0.6, 0.2])
+            for t in range(T)
+        ]
+    )
 
 
 @pytest.mark.parametrize("fmt", sorted(A.FORMATS))
@@ -38,8 +42,9 @@ def test_written_video_opens_and_container_counts_frames(fmt, frames, tmp_path):
     # decoded by ffmpeg (through imageio-ffmpeg): the same number of frames
     reader = imageio_ffmpeg.read_frames(path)
     meta = next(reader)
-    decoded = [np.frombuffer(f, np.uint8).reshape(meta["size"][1], meta["size"][0], 3)
-               for f in reader]
+    decoded = [
+        np.frombuffer(f, np.uint8).reshape(meta["size"][1], meta["size"][0], 3) for f in reader
+    ]
     assert len(decoded) == T
     assert (info.width, info.height) == meta["size"] == (W, H + 1)
     np.testing.assert_allclose(info.duration, T / 10, atol=0.02)
@@ -63,7 +68,7 @@ def test_container_details_and_imageio(frames, tmp_path):
     assert mov.format == "MOV" and mov.tree[0].fields["major_brand"].startswith("qt")
     avi = A.container_info(A.save_animation(frames, tmp_path / "a.avi", fps=10))
     assert avi.codec == "MJPG" and avi.tree[0].name == "RIFF:AVI "
-    avih = next(n for n in A.video._walk(avi.tree) if n.name == "avih")
+    avih = next(n for n in _walk(avi.tree) if n.name == "avih")
     assert avih.fields["total_frames"] == T
     flv = A.container_info(A.save_animation(frames, tmp_path / "a.flv", fps=10))
     assert flv.codec.startswith("Sorenson") and flv.tree[1].name == "script:onMetaData"
@@ -98,3 +103,10 @@ def test_video_bad_inputs(frames, tmp_path):
     cut.write_bytes(whole[:60])  # the ftyp box and a piece of the next: no moov
     with pytest.raises(ValueError, match="moov|damaged"):
         A.container_info(cut)
+
+
+def _walk(nodes):
+    """Every node of a container tree, depth first (public `Node.children` only)."""
+    for node in nodes:
+        yield node
+        yield from _walk(node.children)

@@ -238,8 +238,103 @@ def test_cli_lists_prints_and_writes_markdown(tmp_path):
     assert all(qid in listing.stdout for qid in exam.QUESTIONS)
     one = _cli("Q1b", "--set", "radius=5")
     assert one.returncode == 0 and "p0 = 1 - r = -4" in one.stdout
+    q2a = _cli("Q2a")
+    assert q2a.returncode == 0 and "Step 1. Translate the window corner" in q2a.stdout
+    assert "Step 1. 1." not in q2a.stdout
     out = tmp_path / "q2b.md"
     md = _cli("Q2b", "--markdown", str(out))
     assert md.returncode == 0 and "\\begin{pmatrix}" in out.read_text()
     bad = _cli("Q7a")
     assert bad.returncode == 2 and "no question" in bad.stderr
+
+
+@pytest.fixture
+def x64_off():
+    """The caller's process in JAX's default float32 mode (the test suite runs in float64)."""
+    import jax
+
+    jax.config.update("jax_enable_x64", False)
+    try:
+        yield
+    finally:
+        jax.config.update("jax_enable_x64", True)
+
+
+@pytest.mark.parametrize("call", ["solve", "figure", "errata"])
+def test_exam_leaves_the_callers_x64_setting_alone(x64_off, call):
+    import jax
+    import jax.numpy as jnp
+    import matplotlib.pyplot as plt
+
+    assert jax.config.jax_enable_x64 is False
+    if call == "solve":
+        values = exam.solve("Q5f").values
+        # Still computed in float64 inside: the DCT matches NumPy to float64 precision.
+        k = np.arange(8)
+        alpha = np.where(k == 0, np.sqrt(1 / 8), np.sqrt(2 / 8))
+        basis = alpha[:, None] * np.cos((2 * k[None, :] + 1) * k[:, None] * np.pi / 16)
+        np.testing.assert_allclose(values["dct"], basis @ SEED_BLOCK @ basis.T, atol=1e-9)
+    elif call == "figure":
+        plt.close(exam.solve("Q4f").figure())
+    else:
+        assert exam.errata()
+    assert jax.config.jax_enable_x64 is False
+    assert jnp.ones(1).dtype == jnp.float32
+
+
+def test_exam_keeps_x64_on_when_the_caller_set_it():
+    import jax
+
+    assert jax.config.jax_enable_x64 is True
+    exam.solve("Q2a")
+    assert jax.config.jax_enable_x64 is True
+
+
+@pytest.mark.parametrize("qid", [q for q, item in exam.QUESTIONS.items() if item.numeric])
+def test_step_titles_are_not_numbered_twice(qid):
+    import re
+
+    for line in exam.solve(qid).to_text().splitlines():
+        assert not re.match(r"Step \d+\. \d+\. ", line), line
+
+
+def test_dct_figure_colour_maps_are_centred_at_zero():
+    import matplotlib.pyplot as plt
+
+    fig = exam.solve("Q5f").figure()
+    try:
+        images = [ax.images[0] for ax in fig.axes if ax.images]
+        assert len(images) == 3
+        for im in images:
+            low, high = im.get_clim()
+            assert low == -high and high > 0
+            assert im.get_cmap().name == "RdBu_r"
+    finally:
+        plt.close(fig)
+
+
+def test_question_bad_ids():
+    with pytest.raises(TypeError, match="`qid`"):
+        exam.question(None)
+    with pytest.raises(TypeError, match="`qid`"):
+        exam.solve(3)
+    with pytest.raises(KeyError, match="no question ''"):
+        exam.question("")
+
+
+def test_public_namespace_is_flat():
+    import gfxlab.exam as package
+
+    assert set(package.__all__) == {
+        "Question",
+        "Answer",
+        "Step",
+        "Table",
+        "QUESTIONS",
+        "question",
+        "solve",
+        "errata",
+        "main",
+    }
+    assert all(hasattr(package, name) for name in package.__all__)
+    assert isinstance(package.QUESTIONS["Q1a"], package.Question)

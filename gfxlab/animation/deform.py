@@ -23,9 +23,11 @@ from jaxtyping import Array, Float
 from .. import curves
 from .._checks import (
     as_float,
+    check_finite,
     check_last_dim,
     check_shape,
     common_float,
+    finite_float,
     safe_norm,
     static_int,
     value_error_if,
@@ -68,8 +70,9 @@ def skin(
     if vertices.ndim < 2:
         raise ValueError(f"`vertices` must have shape (..., N, {d}), got {vertices.shape}")
     if weights.ndim != 2 or weights.shape[0] != n:
-        raise ValueError(f"`weights` must have shape ({n}, B) (one row per vertex), "
-                         f"got {weights.shape}")
+        raise ValueError(
+            f"`weights` must have shape ({n}, B) (one row per vertex), got {weights.shape}"
+        )
     b = weights.shape[1]
     check_shape(bone_transforms, "bone_transforms", (..., b, d + 1, d + 1))
     bad = (jnp.abs(jnp.sum(weights, axis=-1) - 1) > atol) | jnp.any(weights < 0, axis=-1)
@@ -85,9 +88,7 @@ def _skin_kernel(vertices, weights, bone_transforms):
     d = vertices.shape[-1]
     # Blend the top d rows of the matrices with one GEMM, then apply them.
     flat = bone_transforms[..., :d, :].reshape(bone_transforms.shape[:-3] + (b, d * (d + 1)))
-    blended = jnp.einsum("nb,...bk->...nk", weights, flat).reshape(
-        flat.shape[:-2] + (n, d, d + 1)
-    )
+    blended = jnp.einsum("nb,...bk->...nk", weights, flat).reshape(flat.shape[:-2] + (n, d, d + 1))
     return jnp.einsum("...nij,...nj->...ni", blended[..., :d], vertices) + blended[..., d]
 
 
@@ -142,8 +143,9 @@ def bone_weights(
 
     - `vertices`: `(N, d)` rest-pose vertices.
     - `segments`: `(B, 2, d)` bones as (start, end) points (`Skeleton.bone_segments()`).
-    - `falloff`: distance scale that softens the blend (larger: smoother, more blending).
-    - `power`: sharpness of the blend.
+    - `falloff`: distance scale that softens the blend (larger: smoother, more blending);
+      finite and > 0.
+    - `power`: sharpness of the blend, finite and >= 0.
 
     **Returns:** `(N, B)` weights, rows summing to 1.
     """
@@ -151,6 +153,13 @@ def bone_weights(
     d = check_last_dim(vertices, "vertices", (2, 3), "2D or 3D points")
     check_shape(vertices, "vertices", (None, d))
     check_shape(segments, "segments", (None, 2, d))
+    vertices, segments = check_finite(vertices, "vertices"), check_finite(segments, "segments")
+    falloff = finite_float(falloff, "falloff").astype(vertices.dtype)
+    falloff = value_error_if(
+        falloff, falloff <= 0, "`falloff` must be positive (it keeps weights finite on a bone)"
+    )
+    power = finite_float(power, "power").astype(vertices.dtype)
+    power = value_error_if(power, power < 0, "`power` must be >= 0")
     return _weights_kernel(vertices, segments, falloff, power)
 
 
@@ -170,8 +179,9 @@ def bezier_path(control_points: Float[Array, "M d"]) -> Callable[[jax.Array], ja
     """
     control_points = as_float(control_points, "control_points")
     if control_points.ndim != 2 or control_points.shape[0] < 2:
-        raise ValueError(f"`control_points` must have shape (M >= 2, d), got "
-                         f"{control_points.shape}")
+        raise ValueError(
+            f"`control_points` must have shape (M >= 2, d), got {control_points.shape}"
+        )
 
     def path(u):
         u = as_float(u, "u")
@@ -222,16 +232,19 @@ def curve_deform(
     grid = jnp.linspace(0.0, 1.0, samples, dtype=dtype)
     pts = as_float(path(grid), "path(u)").astype(dtype)
     if pts.shape != (samples, d):
-        raise ValueError(f"`path(u)` must return ({samples}, {d}) points for u of shape "
-                         f"({samples},), got {pts.shape}")
+        raise ValueError(
+            f"`path(u)` must return ({samples}, {d}) points for u of shape "
+            f"({samples},), got {pts.shape}"
+        )
     seg = safe_norm(jnp.diff(pts, axis=0))
     arc = jnp.concatenate([jnp.zeros((1,), dtype), jnp.cumsum(seg)])
     total = arc[-1]
     if length is None:
         length = jnp.max(vertices[:, 0])
     length = as_float(length, "length").astype(dtype)
-    length = value_error_if(length, length <= 0, "`length` must be positive (the shape's x "
-                            "extent along the path)")
+    length = value_error_if(
+        length, length <= 0, "`length` must be positive (the shape's x extent along the path)"
+    )
     s_target = jnp.clip(vertices[:, 0] / length, 0.0, 1.0) * total
     u = jnp.interp(s_target, arc, grid)
     if tangent is None:

@@ -20,10 +20,14 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from .. import curves
 from .._checks import (
     as_float,
+    check_finite,
+    check_last_dim,
     check_shape,
     common_float,
+    is_traced,
     safe_divide,
     static_int,
     value_error_if,
@@ -67,10 +71,11 @@ EASINGS = {
 
 
 def _bezier_1d(s, a, b):
-    # Cubic Bezier with control values 0, a, b, 1, and its derivative.
-    r = 1 - s
-    value = 3 * r * r * s * a + 3 * r * s * s * b + s**3
-    slope = 3 * r * r * a + 6 * r * s * (b - a) + 3 * s * s * (1 - b)
+    # Cubic Bezier with control values 0, a, b, 1, and its derivative (the degree-2
+    # Bezier of the control differences), in gfxlab.curves' Bernstein basis.
+    cubic, quadratic = curves.bernstein(3, s), curves.bernstein(2, s)
+    value = cubic[..., 1] * a + cubic[..., 2] * b + cubic[..., 3]
+    slope = 3 * (quadratic[..., 0] * a + quadratic[..., 1] * (b - a) + quadratic[..., 2] * (1 - b))
     return value, slope
 
 
@@ -98,15 +103,17 @@ def cubic_bezier_easing(
     """
     if isinstance(control, str):
         if control not in EASINGS:
-            raise ValueError(f"`control` must be one of {sorted(EASINGS)} or (x1, y1, x2, y2), "
-                             f"got {control!r}")
+            raise ValueError(
+                f"`control` must be one of {sorted(EASINGS)} or (x1, y1, x2, y2), got {control!r}"
+            )
         control = EASINGS[control]
     u, control = common_float(u, control, names=("u", "control"))
     check_shape(control, "control", (..., 4))
     x1, y1, x2, y2 = jnp.moveaxis(control, -1, 0)
     bad = (x1 < 0) | (x1 > 1) | (x2 < 0) | (x2 > 1)
-    x1 = value_error_if(x1, bad, "`control` x1 and x2 must lie in [0, 1] (time must not run "
-                        "backwards)")
+    x1 = value_error_if(
+        x1, bad, "`control` x1 and x2 must lie in [0, 1] (time must not run backwards)"
+    )
     iterations = static_int(iterations, "iterations", minimum=1)
     return _ease_kernel(u, x1, y1, x2, y2, iterations=iterations)
 
@@ -163,8 +170,9 @@ def _check_keys(times, values, name="values"):
             f"got {values.shape}"
         )
     times = value_error_if(
-        times, jnp.any(jnp.diff(times) <= 0), "`times` must be strictly increasing (sorted key "
-        "times without duplicates)"
+        times,
+        jnp.any(jnp.diff(times) <= 0),
+        "`times` must be strictly increasing (sorted key times without duplicates)",
     )
     return times, values
 
@@ -198,10 +206,12 @@ def catmull_rom_tangents(
 @jax.jit
 def _cardinal_tangents(times, values, tension):
     expand = (slice(None),) + (None,) * (values.ndim - 1)
-    dp = jnp.concatenate([values[1:2] - values[:1], values[2:] - values[:-2],
-                          values[-1:] - values[-2:-1]])
-    dt = jnp.concatenate([times[1:2] - times[:1], times[2:] - times[:-2],
-                          times[-1:] - times[-2:-1]])
+    dp = jnp.concatenate(
+        [values[1:2] - values[:1], values[2:] - values[:-2], values[-1:] - values[-2:-1]]
+    )
+    dt = jnp.concatenate(
+        [times[1:2] - times[:1], times[2:] - times[:-2], times[-1:] - times[-2:-1]]
+    )
     return (1 - tension) * dp / dt[expand]
 
 
@@ -247,8 +257,10 @@ def interpolate(
         control = easing
         if isinstance(control, str):
             if control not in EASINGS:
-                raise ValueError(f"`easing` must be one of {sorted(EASINGS)} or (x1, y1, x2, "
-                                 f"y2), got {control!r}")
+                raise ValueError(
+                    f"`easing` must be one of {sorted(EASINGS)} or (x1, y1, x2, "
+                    f"y2), got {control!r}"
+                )
             control = EASINGS[control]
         control = as_float(control, "easing").astype(values.dtype)
         check_shape(control, "easing", (..., 4))
@@ -258,10 +270,15 @@ def interpolate(
             )
         if control.ndim > 2:
             raise ValueError(f"`easing` must be (4,) or ({k - 1}, 4), got {control.shape}")
-        bad = (control[..., 0] < 0) | (control[..., 0] > 1) | (control[..., 2] < 0) | (
-            control[..., 2] > 1)
-        control = value_error_if(control, bad, "`easing` x1 and x2 must lie in [0, 1] (time "
-                                 "must not run backwards)")
+        bad = (
+            (control[..., 0] < 0)
+            | (control[..., 0] > 1)
+            | (control[..., 2] < 0)
+            | (control[..., 2] > 1)
+        )
+        control = value_error_if(
+            control, bad, "`easing` x1 and x2 must lie in [0, 1] (time must not run backwards)"
+        )
     elif method == "catmull_rom" and k > 1:
         m = _cardinal_tangents(times, values, jnp.asarray(tension, values.dtype))
     elif method == "hermite":
@@ -269,8 +286,9 @@ def interpolate(
             raise ValueError('`tangents` (K, ...) are required for method="hermite"')
         m = as_float(tangents, "tangents").astype(values.dtype)
         if m.shape != values.shape:
-            raise ValueError(f"`tangents` must have the shape of `values` {values.shape}, "
-                             f"got {m.shape}")
+            raise ValueError(
+                f"`tangents` must have the shape of `values` {values.shape}, got {m.shape}"
+            )
     return _interpolate_kernel(times, values, t, m, control, method=method)
 
 
@@ -305,8 +323,9 @@ def _interpolate_kernel(times, values, t, m, control, *, method):
 def _align_signs(quats):
     # Flip keys so consecutive dot products are >= 0 (shortest arcs between keys).
     dots = jnp.sum(quats[1:] * quats[:-1], axis=-1)
-    signs = jnp.concatenate([jnp.ones((1,), quats.dtype), jnp.cumprod(jnp.where(dots < 0, -1.0,
-                                                                                  1.0))])
+    signs = jnp.concatenate(
+        [jnp.ones((1,), quats.dtype), jnp.cumprod(jnp.where(dots < 0, -1.0, 1.0))]
+    )
     return quats * signs[:, None]
 
 
@@ -404,6 +423,46 @@ class TrackSample(eqx.Module):
         return jnp.concatenate([top, bottom], axis=-2)
 
 
+def _field_converter(name: str):
+    """A converter for a `Track` field: a float array (None kept for absent channels),
+    with a `TypeError` naming the field for anything that is not numbers."""
+
+    def convert(x):
+        if x is None and name != "times":
+            return None
+        return x if is_traced(x) else as_float(x, name)
+
+    return convert
+
+
+def _check_track_values(track) -> None:
+    """Shapes and values of a Track's fields, checked eagerly at construction."""
+    times = track.times
+    if times.ndim < 1:
+        raise ValueError(f"`times` must be (*B, K) key times, got shape {times.shape}")
+    for name in ("position", "rotation", "scale", "colour"):
+        values = getattr(track, name)
+        if values is None:
+            continue
+        if values.ndim != times.ndim + 1 or values.shape[:-1] != times.shape:
+            raise ValueError(
+                f"`{name}` must be (*B, K, c) matching `times` {times.shape}, "
+                f"got shape {values.shape}"
+            )
+        if not is_traced(values):
+            check_finite(values, name)
+    if track.rotation is not None:
+        check_last_dim(track.rotation, "rotation", (4,), "quaternion keys (w, x, y, z)")
+    if not is_traced(times):
+        check_finite(times, "times")
+        if times.shape[-1] > 1:
+            value_error_if(
+                times,
+                jnp.diff(times, axis=-1) <= 0,
+                "`times` must be strictly increasing key times",
+            )
+
+
 class Track(eqx.Module):
     """Key-framed channels sharing key times: position, rotation, scale and colour.
 
@@ -420,36 +479,53 @@ class Track(eqx.Module):
     - `rotation_method`: `"step"`, `"slerp"` or `"squad"`.
     """
 
-    times: Float[Array, "*B K"]
-    position: Float[Array, "*B K d"] | None = None
-    rotation: Float[Array, "*B K 4"] | None = None
-    scale: Float[Array, "*B K d"] | None = None
-    colour: Float[Array, "*B K c"] | None = None
+    times: Float[Array, "*B K"] = eqx.field(converter=_field_converter("times"))
+    position: Float[Array, "*B K d"] | None = eqx.field(
+        default=None, converter=_field_converter("position")
+    )
+    rotation: Float[Array, "*B K 4"] | None = eqx.field(
+        default=None, converter=_field_converter("rotation")
+    )
+    scale: Float[Array, "*B K d"] | None = eqx.field(
+        default=None, converter=_field_converter("scale")
+    )
+    colour: Float[Array, "*B K c"] | None = eqx.field(
+        default=None, converter=_field_converter("colour")
+    )
     method: str = eqx.field(default="linear", static=True)
     rotation_method: str = eqx.field(default="slerp", static=True)
 
     def __check_init__(self):
+        _check_track_values(self)
         if self.method not in METHODS or self.method == "hermite":
-            raise ValueError(f"`method` of a Track must be one of "
-                             f"{tuple(m for m in METHODS if m != 'hermite')}, got {self.method!r}")
+            raise ValueError(
+                f"`method` of a Track must be one of "
+                f"{tuple(m for m in METHODS if m != 'hermite')}, got {self.method!r}"
+            )
         if self.rotation_method not in ("step", "slerp", "squad"):
-            raise ValueError("`rotation_method` must be 'step', 'slerp' or 'squad', got "
-                             f"{self.rotation_method!r}")
+            raise ValueError(
+                "`rotation_method` must be 'step', 'slerp' or 'squad', got "
+                f"{self.rotation_method!r}"
+            )
         if all(c is None for c in (self.position, self.rotation, self.scale, self.colour)):
-            raise ValueError("a Track needs at least one channel (position, rotation, scale "
-                             "or colour)")
+            raise ValueError(
+                "a Track needs at least one channel (position, rotation, scale or colour)"
+            )
 
     def _single(self, t):
         def channel(values):
-            return None if values is None else interpolate(self.times, values, t,
-                                                           method=self.method)
+            return (
+                None if values is None else interpolate(self.times, values, t, method=self.method)
+            )
 
         rotation = None
         if self.rotation is not None:
-            rotation = interpolate_rotations(self.times, self.rotation, t,
-                                             method=self.rotation_method)
-        return TrackSample(channel(self.position), rotation, channel(self.scale),
-                           channel(self.colour))
+            rotation = interpolate_rotations(
+                self.times, self.rotation, t, method=self.rotation_method
+            )
+        return TrackSample(
+            channel(self.position), rotation, channel(self.scale), channel(self.colour)
+        )
 
     def __call__(self, t: Float[Array, " T"]) -> TrackSample:
         """Evaluate every track at times `t` `(T,)` (shared by all tracks).

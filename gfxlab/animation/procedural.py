@@ -8,6 +8,7 @@ value/gradient noise for secondary motion (wobble, breathing, camera shake).
 from __future__ import annotations
 
 import functools
+import math
 
 import equinox as eqx
 import jax
@@ -16,10 +17,13 @@ from jaxtyping import Array, Bool, Float, Int
 
 from .._checks import (
     as_float,
+    check_finite,
     check_last_dim,
     check_shape,
     common_float,
+    finite_float,
     safe_norm,
+    safe_normalize,
     static_int,
     value_error_if,
 )
@@ -34,7 +38,48 @@ __all__ = [
     "value_noise",
     "gradient_noise",
     "fractal_noise",
+    "MAX_PARTICLES",
+    "MAX_STEPS",
+    "MAX_SPRING_MASSES",
+    "MAX_SAMPLES",
 ]
+
+#: Size limits, refused before allocating: particles per `emit`, time steps per
+#: simulation, masses in `chain_springs`, and stored samples (steps x N x d) per run.
+MAX_PARTICLES = 1_000_000
+MAX_STEPS = 1_000_000
+MAX_SPRING_MASSES = 1_000_000
+MAX_SAMPLES = 1 << 26
+
+
+def _check_output_size(steps: int, shape: tuple, name: str = "steps") -> None:
+    size = (steps + 1) * math.prod(shape)
+    if size > MAX_SAMPLES:
+        raise ValueError(
+            f"`{name}` = {steps} would store {size} samples, above MAX_SAMPLES = {MAX_SAMPLES} "
+            "(a documented size limit); simulate fewer steps or fewer particles"
+        )
+
+
+def _finite_scalar(value, name: str, dtype, *, positive: bool = False, low=None):
+    x = finite_float(value, name).astype(dtype)
+    if positive:
+        x = value_error_if(x, x <= 0, f"`{name}` must be positive")
+    if low is not None:
+        x = value_error_if(x, x < low, f"`{name}` must be >= {low:g}")
+    return x
+
+
+def _direction(v, name: str):
+    """Unit vectors along `v`; a zero (or NaN/inf) vector is an error naming `name`."""
+    v = check_finite(v, name)
+    v = value_error_if(v, safe_norm(v) == 0, f"`{name}` must be a non-zero vector")
+    return safe_normalize(v)
+
+
+def _check_key(key) -> None:
+    if key is None:
+        raise TypeError("`key` must be a jax.random key (jax.random.key(0)), got None")
 
 
 class Particles(eqx.Module):
@@ -65,7 +110,7 @@ def emit(
     **Arguments:**
 
     - `key`: a `jax.random` key.
-    - `count`: number of particles (static).
+    - `count`: number of particles (static, at most `MAX_PARTICLES`).
     - `origin`: `(d,)` emitter position (d = 2 or 3).
     - `direction`: `(d,)` mean launch direction (normalised).
     - `speed`: mean launch speed; `speed_jitter` its relative random spread.
@@ -75,17 +120,22 @@ def emit(
 
     **Returns:** `Particles`.
     """
-    count = static_int(count, "count", minimum=1)
+    _check_key(key)
+    count = static_int(count, "count", minimum=1, maximum=MAX_PARTICLES)
     origin, direction = common_float(origin, direction, names=("origin", "direction"))
     d = check_last_dim(origin, "origin", (2, 3), "a 2D or 3D point")
+    origin = check_finite(origin, "origin")
     check_shape(direction, "direction", (d,))
+    unit = _direction(direction, "direction")
+    speed = _finite_scalar(speed, "speed", origin.dtype)
+    spread = _finite_scalar(spread, "spread", origin.dtype, low=0.0)
+    speed_jitter = _finite_scalar(speed_jitter, "speed_jitter", origin.dtype, low=0.0)
     k1, k2 = jax.random.split(key)
-    unit = direction / safe_norm(direction)
-    dirs = unit + spread * jax.random.normal(k1, (count, d), origin.dtype)
-    dirs = dirs / safe_norm(dirs, keepdims=True)
+    dirs = safe_normalize(unit + spread * jax.random.normal(k1, (count, d), origin.dtype))
     speeds = speed * (1 + speed_jitter * jax.random.normal(k2, (count, 1), origin.dtype))
     birth = jnp.zeros((count,), origin.dtype)
     if rate is not None:
+        rate = _finite_scalar(rate, "rate", origin.dtype, positive=True)
         birth = jnp.arange(count, dtype=origin.dtype) / rate
     position = jnp.broadcast_to(origin, (count, d))
     return Particles(position, dirs * speeds, birth)
@@ -100,8 +150,7 @@ def _planes(planes, d, dtype):
     offsets = jnp.atleast_1d(offsets).astype(dtype)
     check_shape(normals, "planes normals", (None, d))
     check_shape(offsets, "planes offsets", (normals.shape[0],))
-    normals = normals / safe_norm(normals, keepdims=True)
-    return normals, offsets
+    return _direction(normals, "planes normals"), check_finite(offsets, "planes offsets")
 
 
 def simulate_particles(
@@ -125,7 +174,8 @@ def simulate_particles(
     **Arguments:**
 
     - `particles`: the start state (`emit`, or your own `Particles`).
-    - `steps`: number of steps (static); `dt`: step size in seconds.
+    - `steps`: number of steps (static, at most `MAX_STEPS`, with
+      `(steps + 1) N d <= MAX_SAMPLES`); `dt`: step size in seconds.
     - `gravity`: `(d,)` acceleration, default `(0, -9.81)` / `(0, -9.81, 0)` (y up).
     - `drag`: linear air drag coefficient (1/s).
     - `planes`: `(normals (P, d), offsets (P,))`: solid half-spaces `n . p < c` that
@@ -135,19 +185,24 @@ def simulate_particles(
 
     **Returns:** `(positions, velocities)`, each `(steps + 1, N, d)` including the start.
     """
-    steps = static_int(steps, "steps", minimum=1)
-    position = as_float(particles.position, "particles.position")
+    if not isinstance(particles, Particles):
+        raise TypeError(f"`particles` must be a Particles (from emit), got {particles!r}")
+    steps = static_int(steps, "steps", minimum=1, maximum=MAX_STEPS)
+    position = finite_float(particles.position, "particles.position")
     d = check_last_dim(position, "particles.position", (2, 3), "2D or 3D points")
-    velocity = as_float(particles.velocity, "particles.velocity").astype(position.dtype)
+    _check_output_size(steps, position.shape)
+    velocity = finite_float(particles.velocity, "particles.velocity").astype(position.dtype)
     check_shape(velocity, "particles.velocity", position.shape)
-    birth = as_float(particles.birth, "particles.birth").astype(position.dtype)
+    birth = finite_float(particles.birth, "particles.birth").astype(position.dtype)
     check_shape(birth, "particles.birth", position.shape[:1])
-    dt = as_float(dt, "dt").astype(position.dtype)
-    dt = value_error_if(dt, dt <= 0, "`dt` must be positive")
+    dt = _finite_scalar(dt, "dt", position.dtype, positive=True)
     if gravity is None:
         gravity = jnp.zeros((d,), position.dtype).at[1].set(-9.81)
-    gravity = as_float(gravity, "gravity").astype(position.dtype)
+    gravity = finite_float(gravity, "gravity").astype(position.dtype)
     check_shape(gravity, "gravity", (d,))
+    drag = _finite_scalar(drag, "drag", position.dtype, low=0.0)
+    restitution = _finite_scalar(restitution, "restitution", position.dtype, low=0.0)
+    friction = _finite_scalar(friction, "friction", position.dtype)
     normals, offsets = _planes(planes, d, position.dtype)
 
     def step(state, k):
@@ -200,12 +255,17 @@ def damped_spring(
     **Returns:** `(T, ...)` positions after each step.
     """
     x0, v0, target = common_float(x0, v0, target, names=("x0", "v0", "target"))
+    x0, v0 = check_finite(x0, "x0"), check_finite(v0, "v0")
+    target = check_finite(target, "target")
+    stiffness = _finite_scalar(stiffness, "stiffness", x0.dtype)
+    damping = _finite_scalar(damping, "damping", x0.dtype)
     if steps is not None:
-        steps = static_int(steps, "steps", minimum=1)
+        steps = static_int(steps, "steps", minimum=1, maximum=MAX_STEPS)
+        _check_output_size(steps, jnp.broadcast_shapes(x0.shape, target.shape))
         target = jnp.broadcast_to(target, (steps,) + jnp.broadcast_shapes(x0.shape, target.shape))
     elif target.ndim == 0 or target.shape[1:] != jnp.broadcast_shapes(x0.shape, target.shape[1:]):
         raise ValueError("`target` must be (T, *x0.shape) or give `steps` for a constant target")
-    dt = value_error_if(as_float(dt, "dt"), as_float(dt, "dt") <= 0, "`dt` must be positive")
+    dt = _finite_scalar(dt, "dt", x0.dtype, positive=True)
 
     def step(state, goal):
         x, v = state
@@ -219,8 +279,11 @@ def damped_spring(
 
 
 def chain_springs(count: int) -> Int[Array, "E 2"]:
-    """Edges `(i, i+1)` of a chain of `count` masses (a rope, a tail, an antenna)."""
-    count = static_int(count, "count", minimum=2)
+    """Edges `(i, i+1)` of a chain of `count` masses (a rope, a tail, an antenna).
+
+    `count` is a static int in `2..MAX_SPRING_MASSES`.
+    """
+    count = static_int(count, "count", minimum=2, maximum=MAX_SPRING_MASSES)
     i = jnp.arange(count - 1)
     return jnp.stack([i, i + 1], axis=-1)
 
@@ -247,7 +310,8 @@ def simulate_springs(
 
     - `position`, `velocity`: `(N, d)` start state.
     - `springs`: `(E, 2)` integer pairs of connected masses (`chain_springs(n)`).
-    - `steps` (static), `dt`: fixed time stepping.
+    - `steps` (static, at most `MAX_STEPS`, with `(steps + 1) N d <= MAX_SAMPLES`), `dt`:
+      fixed time stepping.
     - `stiffness`: spring constant(s) k; `damping`: velocity damping coefficient (1/s);
       `rest_length`: `(E,)`, default the start lengths; `mass`: scalar or `(N,)`.
     - `gravity`: `(d,)` acceleration (default none).
@@ -260,32 +324,52 @@ def simulate_springs(
     **Returns:** `(steps + 1, N, d)` positions including the start.
     """
     if integrator not in ("semi_implicit_euler", "verlet"):
-        raise ValueError("`integrator` must be 'semi_implicit_euler' or 'verlet', got "
-                         f"{integrator!r}")
-    steps = static_int(steps, "steps", minimum=1)
+        raise ValueError(
+            f"`integrator` must be 'semi_implicit_euler' or 'verlet', got {integrator!r}"
+        )
+    steps = static_int(steps, "steps", minimum=1, maximum=MAX_STEPS)
     position, velocity = common_float(position, velocity, names=("position", "velocity"))
     n, d = position.shape[0], check_last_dim(position, "position", (1, 2, 3))
     check_shape(velocity, "velocity", position.shape)
-    springs = jnp.asarray(springs)
-    if springs.ndim != 2 or springs.shape[1] != 2 or not jnp.issubdtype(springs.dtype,
-                                                                         jnp.integer):
-        raise ValueError(f"`springs` must be integer pairs (E, 2), got {springs.shape} "
-                         f"{springs.dtype}")
-    springs = value_error_if(springs, jnp.any((springs < 0) | (springs >= n)),
-                             f"`springs` indices must lie in [0, {n})")
-    a_idx, b_idx = springs[:, 0], springs[:, 1]
+    _check_output_size(steps, position.shape)
+    position, velocity = check_finite(position, "position"), check_finite(velocity, "velocity")
+    springs = _spring_pairs(springs, n)
+    dtype = position.dtype
     if rest_length is None:
-        rest_length = safe_norm(position[b_idx] - position[a_idx])
-    rest_length = as_float(rest_length, "rest_length").astype(position.dtype)
-    mass = jnp.broadcast_to(as_float(mass, "mass").astype(position.dtype), (n,))
+        rest_length = safe_norm(position[springs[:, 1]] - position[springs[:, 0]])
+    rest_length = finite_float(rest_length, "rest_length").astype(dtype)
+    mass = jnp.broadcast_to(finite_float(mass, "mass").astype(dtype), (n,))
     mass = value_error_if(mass, mass <= 0, "`mass` must be positive")
-    dt = value_error_if(as_float(dt, "dt"), as_float(dt, "dt") <= 0, "`dt` must be positive")
-    g = jnp.zeros((d,), position.dtype) if gravity is None else as_float(gravity, "gravity")
+    dt = _finite_scalar(dt, "dt", dtype, positive=True)
+    stiffness = finite_float(stiffness, "stiffness").astype(dtype)
+    damping = _finite_scalar(damping, "damping", dtype)
+    g = jnp.zeros((d,), dtype) if gravity is None else finite_float(gravity, "gravity")
+    check_shape(g, "gravity", (d,))
     free = jnp.ones((n, 1), bool) if pinned is None else ~jnp.asarray(pinned, bool)[:, None]
     if anchor is None:
         anchor = jnp.broadcast_to(position, (steps, n, d))
-    anchor = as_float(anchor, "anchor").astype(position.dtype)
+    anchor = finite_float(anchor, "anchor").astype(dtype)
     check_shape(anchor, "anchor", (steps, n, d))
+    params = (springs, rest_length, mass, stiffness, damping, g.astype(dtype), free)
+    return _springs_kernel(position, velocity, anchor, dt, params, verlet=integrator == "verlet")
+
+
+def _spring_pairs(springs, n: int) -> jax.Array:
+    if springs is None:
+        raise TypeError("`springs` must be integer pairs (E, 2), got None")
+    springs = jnp.asarray(springs)
+    if springs.ndim != 2 or springs.shape[1] != 2 or not jnp.issubdtype(springs.dtype, jnp.integer):
+        raise ValueError(
+            f"`springs` must be integer pairs (E, 2), got {springs.shape} {springs.dtype}"
+        )
+    bad = jnp.any((springs < 0) | (springs >= n))
+    return value_error_if(springs, bad, f"`springs` indices must lie in [0, {n})")
+
+
+@functools.partial(jax.jit, static_argnames=("verlet",))
+def _springs_kernel(position, velocity, anchor, dt, params, *, verlet):
+    springs, rest_length, mass, stiffness, damping, g, free = params
+    a_idx, b_idx = springs[:, 0], springs[:, 1]
 
     def accel(x, v):
         delta = x[b_idx] - x[a_idx]
@@ -302,21 +386,21 @@ def simulate_springs(
         v_new = jnp.where(free, v_new, (goal - x) / dt)
         return (x_new, v_new), x_new
 
-    def verlet(state, goal):
+    def verlet_step(state, goal):
         x, x_prev = state
         v = (x - x_prev) / dt
         x_new = jnp.where(free, 2 * x - x_prev + dt * dt * accel(x, v), goal)
         return (x_new, x), x_new
 
-    if integrator == "verlet":
-        start = (position, position - dt * velocity)
-        _, xs = jax.lax.scan(verlet, start, anchor)
+    if verlet:
+        _, xs = jax.lax.scan(verlet_step, (position, position - dt * velocity), anchor)
     else:
         _, xs = jax.lax.scan(euler, (position, velocity), anchor)
     return jnp.concatenate([position[None], xs])
 
 
 # ---------------------------------------------------------------- noise
+
 
 def _hash(ints: jax.Array, seed: int) -> jax.Array:
     """A 32-bit integer hash of lattice coordinates `(..., k)` -> uniform floats in [0, 1)."""

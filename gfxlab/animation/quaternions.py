@@ -10,7 +10,15 @@ from __future__ import annotations
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .._checks import as_float, check_last_dim, common_float, safe_norm, value_error_if
+from .._checks import (
+    check_finite,
+    check_last_dim,
+    common_float,
+    finite_float,
+    safe_norm,
+    safe_normalize,
+    value_error_if,
+)
 
 __all__ = [
     "quat_identity",
@@ -31,6 +39,18 @@ __all__ = [
 Quat = Float[Array, "*batch 4"]
 
 
+def _finite(*arrays, names):
+    """Float arrays promoted to one dtype, each checked for None, NaN and infinity."""
+    arrays = common_float(*arrays, names=names)
+    return [check_finite(a, n) for a, n in zip(arrays, names, strict=True)]
+
+
+def _quats(q, name: str = "q"):
+    q = finite_float(q, name)
+    check_last_dim(q, name, (4,), "quaternions (w, x, y, z)")
+    return q
+
+
 def quat_identity(dtype=None) -> Float[Array, "4"]:
     """The identity rotation `(1, 0, 0, 0)`."""
     return jnp.array([1.0, 0.0, 0.0, 0.0], dtype=dtype)
@@ -46,11 +66,12 @@ def quat_from_axis_angle(axis: Float[Array, "*batch 3"], angle: Float[Array, "*b
 
     **Returns:** `(..., 4)` unit quaternions `(w, x, y, z)`.
     """
-    axis, angle = common_float(axis, angle, names=("axis", "angle"))
+    axis, angle = _finite(axis, angle, names=("axis", "angle"))
     check_last_dim(axis, "axis", (3,), "a 3D rotation axis")
-    length = safe_norm(axis, keepdims=True)
-    axis = value_error_if(axis, length == 0, "`axis` must be a non-zero 3-vector")
-    k = axis / jnp.where(length == 0, 1.0, length)
+    axis = value_error_if(
+        axis, safe_norm(axis) == 0, "`axis` must be a non-zero 3-vector (a rotation axis)"
+    )
+    k = safe_normalize(axis)
     half = 0.5 * angle[..., None]
     k, half = jnp.broadcast_arrays(k, half)
     return jnp.concatenate([jnp.cos(half[..., :1]), jnp.sin(half) * k], axis=-1)
@@ -62,14 +83,14 @@ def quat_from_rotvec(rotvec: Float[Array, "*batch 3"]) -> Quat:
     This is `quat_exp` of `rotvec / 2`; it has finite gradients at the zero vector, so it
     is a good unconstrained parameterisation of 3D joint rotations for fitting.
     """
-    rotvec = as_float(rotvec, "rotvec")
+    rotvec = finite_float(rotvec, "rotvec")
     check_last_dim(rotvec, "rotvec", (3,), "a rotation vector (axis * angle)")
     return quat_exp(0.5 * rotvec)
 
 
 def quat_multiply(q: Quat, r: Quat) -> Quat:
     """The Hamilton product `q r` (rotate by `r` first, then by `q`)."""
-    q, r = common_float(q, r, names=("q", "r"))
+    q, r = _finite(q, r, names=("q", "r"))
     check_last_dim(q, "q", (4,), "quaternions (w, x, y, z)")
     check_last_dim(r, "r", (4,), "quaternions (w, x, y, z)")
     w1, x1, y1, z1 = jnp.moveaxis(q, -1, 0)
@@ -87,18 +108,15 @@ def quat_multiply(q: Quat, r: Quat) -> Quat:
 
 def quat_conjugate(q: Quat) -> Quat:
     """`(w, -x, -y, -z)`: the inverse of a unit quaternion."""
-    q = as_float(q, "q")
-    check_last_dim(q, "q", (4,), "quaternions (w, x, y, z)")
+    q = _quats(q)
     return q * jnp.array([1.0, -1.0, -1.0, -1.0], q.dtype)
 
 
 def quat_normalize(q: Quat) -> Quat:
     """`q / |q|` (the zero quaternion is rejected)."""
-    q = as_float(q, "q")
-    check_last_dim(q, "q", (4,), "quaternions (w, x, y, z)")
-    length = safe_norm(q, keepdims=True)
-    q = value_error_if(q, length == 0, "`q` must be non-zero quaternions")
-    return q / jnp.where(length == 0, 1.0, length)
+    q = _quats(q)
+    q = value_error_if(q, safe_norm(q) == 0, "`q` must be non-zero quaternions")
+    return safe_normalize(q)
 
 
 def quat_to_matrix(q: Quat) -> Float[Array, "*batch 3 3"]:
@@ -106,8 +124,7 @@ def quat_to_matrix(q: Quat) -> Float[Array, "*batch 3 3"]:
 
     Embed it in a 4x4 with `gfxlab.transforms.linear`.
     """
-    q = as_float(q, "q")
-    check_last_dim(q, "q", (4,), "quaternions (w, x, y, z)")
+    q = _quats(q)
     w, x, y, z = jnp.moveaxis(q, -1, 0)
     rows = [
         [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
@@ -119,15 +136,25 @@ def quat_to_matrix(q: Quat) -> Float[Array, "*batch 3 3"]:
 
 def quat_rotate(q: Quat, points: Float[Array, "*batch N 3"]) -> Float[Array, "*batch N 3"]:
     """Rotate 3D `points` by unit quaternions `q` (`q` broadcasts over the point axis)."""
-    q, points = common_float(q, points, names=("q", "points"))
+    q, points = _finite(q, points, names=("q", "points"))
     check_last_dim(points, "points", (3,), "3D points")
     return jnp.einsum("...ij,...nj->...ni", quat_to_matrix(q), points)
 
 
 def quat_log(q: Quat) -> Float[Array, "*batch 3"]:
-    """Logarithm of unit quaternions: the vector `(angle / 2) * axis`."""
-    q = as_float(q, "q")
-    check_last_dim(q, "q", (4,), "quaternions (w, x, y, z)")
+    """Logarithm of unit quaternions: the vector `(angle / 2) * axis`.
+
+    **Arguments:**
+
+    - `q`: `(..., 4)` non-zero quaternions (unit for a rotation; the zero quaternion
+      has no logarithm and is an error).
+
+    **Returns:** `(..., 3)` vectors.
+    """
+    q = _quats(q)
+    q = value_error_if(
+        q, safe_norm(q) == 0, "`q` must be non-zero quaternions (log(0) is undefined)"
+    )
     v = q[..., 1:]
     s = safe_norm(v, keepdims=True)
     half = jnp.arctan2(s, q[..., :1])
@@ -139,7 +166,7 @@ def quat_log(q: Quat) -> Float[Array, "*batch 3"]:
 
 def quat_exp(v: Float[Array, "*batch 3"]) -> Quat:
     """Exponential of pure quaternions `(0, v)`: `(cos|v|, sin|v| v/|v|)`."""
-    v = as_float(v, "v")
+    v = finite_float(v, "v")
     check_last_dim(v, "v", (3,), "a 3-vector (pure quaternion)")
     theta = safe_norm(v, keepdims=True)
     small = theta < 1e-6
@@ -160,27 +187,48 @@ def slerp(q0: Quat, q1: Quat, u: Float[Array, "*batch"], *, shortest: bool = Tru
     - `u`: interpolation parameter, `0` gives `q0`, `1` gives `q1`; broadcast against
       the batch shape.
     - `shortest`: flip `q1` to `-q1` when that is closer (the shorter of the two arcs
-      for the same pair of rotations).
+      for the same pair of rotations). With `shortest=False` and antipodal keys
+      (`q1 = -q0`: a full turn, no unique great circle) the path is the great circle
+      through `q0` and the perpendicular `(-x, w, -z, y)` of `q0 = (w, x, y, z)`: unit
+      length throughout, with finite gradients.
 
     **Returns:** `(..., 4)` unit quaternions.
     """
-    q0, q1, u = common_float(q0, q1, u, names=("q0", "q1", "u"))
+    q0, q1, u = _finite(q0, q1, u, names=("q0", "q1", "u"))
     check_last_dim(q0, "q0", (4,), "quaternions (w, x, y, z)")
     check_last_dim(q1, "q1", (4,), "quaternions (w, x, y, z)")
+    if not isinstance(shortest, bool):
+        raise TypeError(f"`shortest` must be True or False, got {shortest!r}")
     dot = jnp.sum(q0 * q1, axis=-1, keepdims=True)
     if shortest:
         q1 = jnp.where(dot < 0, -q1, q1)
         dot = jnp.abs(dot)
-    dot = jnp.clip(dot, -1.0, 1.0)
     u = u[..., None]
-    near = dot > 1 - 1e-7
-    omega = jnp.arccos(jnp.where(near, 0.5, dot))
+    tol = 64 * jnp.finfo(dot.dtype).eps
+    # Antipodal keys (q1 = -q0, the same rotation turned by a full turn) have no unique
+    # great circle: take the one through `perp`, a unit quaternion perpendicular to
+    # q0 chosen smoothly from it, in two quarter-turn arcs q0 -> perp -> q1.
+    lengths = safe_norm(q0, keepdims=True) * safe_norm(q1, keepdims=True)
+    anti = dot < (-1 + tol) * lengths  # scale-free, so a small perturbation keeps the branch
+    w, x, y, z = jnp.moveaxis(q0, -1, 0)
+    perp = jnp.stack([-x, w, -z, y], axis=-1)
+    first = _arc(q0, perp, jnp.sum(q0 * perp, axis=-1, keepdims=True), 2 * u, tol)
+    perp_dot = jnp.where(anti, jnp.sum(perp * q1, axis=-1, keepdims=True), 0.0)
+    second = _arc(perp, q1, perp_dot, 2 * u - 1, tol)
+    through_perp = jnp.where(u <= 0.5, first, second)
+    return jnp.where(anti, through_perp, _arc(q0, q1, jnp.where(anti, 0.0, dot), u, tol))
+
+
+def _arc(q0, q1, dot, u, tol):
+    """Slerp on the great circle through `q0` and `q1` (not antipodal: `dot > -1`)."""
+    near = dot > 1 - tol
+    omega = jnp.arccos(jnp.clip(jnp.where(near, 0.5, dot), -1.0, 1.0))
     sin_omega = jnp.sin(omega)
     a = jnp.where(near, 1 - u, jnp.sin((1 - u) * omega) / sin_omega)
     b = jnp.where(near, u, jnp.sin(u * omega) / sin_omega)
     out = a * q0 + b * q1
     # The nearly-parallel branch is a lerp: renormalise it.
-    return jnp.where(near, out / safe_norm(out, keepdims=True), out)
+    return jnp.where(near, safe_normalize(out), out)
 
 
 def squad_inner(q_prev: Quat, q: Quat, q_next: Quat) -> Quat:
@@ -200,7 +248,7 @@ def squad(q0: Quat, s0: Quat, s1: Quat, q1: Quat, u: Float[Array, "*batch"]) -> 
     already be sign-aligned (consecutive dot products >= 0), as `interpolate_rotations`
     does.
     """
-    u = as_float(u, "u")
+    u = finite_float(u, "u")
     outer = slerp(q0, q1, u, shortest=False)
     inner = slerp(s0, s1, u, shortest=False)
     return slerp(outer, inner, 2 * u * (1 - u), shortest=False)

@@ -26,7 +26,14 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from .. import transforms as tf
-from .._checks import as_float, check_last_dim, check_shape, common_float, value_error_if
+from .._checks import (
+    as_float,
+    check_last_dim,
+    check_shape,
+    common_float,
+    finite_float,
+    value_error_if,
+)
 from ..fit import FitResult, fit
 from .quaternions import quat_from_rotvec, quat_to_matrix
 
@@ -67,8 +74,10 @@ class Skeleton(eqx.Module):
                 raise ValueError(
                     f"`parents[{i}]` must be -1 (a root) or an earlier joint in [0, {i}), got {p}"
                 )
-        if self.rest.ndim != 3 or self.rest.shape[0] != j or self.rest.shape[1:] not in (
-            (3, 3), (4, 4)
+        if (
+            self.rest.ndim != 3
+            or self.rest.shape[0] != j
+            or self.rest.shape[1:] not in ((3, 3), (4, 4))
         ):
             raise ValueError(
                 f"`rest` must have shape ({j}, 3, 3) (2D) or ({j}, 4, 4) (3D), "
@@ -208,8 +217,9 @@ def forward_kinematics_loop(
         parent_glob = jnp.where(parent < 0, jnp.eye(n, dtype=rest.dtype), glob[parent])
         return glob.at[j].set(parent_glob @ local), None
 
-    glob, _ = jax.lax.scan(step, jnp.zeros_like(rest),
-                           (jnp.arange(skeleton.num_joints), parents, rest @ pose))
+    glob, _ = jax.lax.scan(
+        step, jnp.zeros_like(rest), (jnp.arange(skeleton.num_joints), parents, rest @ pose)
+    )
     return glob
 
 
@@ -232,8 +242,11 @@ def limit_angles(raw: Float[Array, "*batch"], limits: Float[Array, "*batch 2"] |
         return raw
     limits = as_float(limits, "limits").astype(raw.dtype)
     check_shape(limits, "limits", (..., 2))
-    limits = value_error_if(limits, limits[..., 1] <= limits[..., 0],
-                            "`limits` must be (low, high) pairs with high > low")
+    limits = value_error_if(
+        limits,
+        limits[..., 1] <= limits[..., 0],
+        "`limits` must be (low, high) pairs with high > low",
+    )
     mid = 0.5 * (limits[..., 0] + limits[..., 1])
     half = 0.5 * (limits[..., 1] - limits[..., 0])
     return mid + half * jnp.sin(raw)
@@ -256,6 +269,28 @@ class IKResult(NamedTuple):
     globals: jax.Array
     effector: jax.Array
     fit: FitResult
+
+
+def _active_joints(skeleton: Skeleton, effector: int, active) -> jax.Array:
+    j = skeleton.num_joints
+    if active is None:
+        # Only the effector's ancestors move it; fixing the rest keeps the problem regular.
+        active, p = [], skeleton.parents[effector % j]
+        while p >= 0:
+            active, p = [p, *active], skeleton.parents[p]
+    if not active:
+        raise ValueError(f"joint {effector} has no ancestors to move it (a root effector)")
+    return jnp.array(sorted(set(int(a) % j for a in active)), int)
+
+
+def _ik_start(initial, limits, k_shape, dtype):
+    """The unconstrained start parameters and the start angles of `solve_ik`."""
+    if initial is None:
+        raw0 = jnp.zeros(k_shape, dtype)
+        return raw0, limit_angles(raw0, limits)
+    initial = finite_float(initial, "initial").astype(dtype)
+    check_shape(initial, "initial", k_shape)
+    return _raw_from_angles(initial, limits), initial
 
 
 def solve_ik(
@@ -293,8 +328,13 @@ def solve_ik(
     - `method`, `max_steps`, `learning_rate`: passed to `fit`.
 
     **Returns:** an `IKResult`.
+
+    A driver, like `gfxlab.fit.fit`: it runs jitted solver steps and reads their results
+    on the host, so call it eagerly (not inside `jax.jit` or `jax.grad`).
     """
-    target = as_float(target, "target")
+    if not isinstance(skeleton, Skeleton):
+        raise TypeError(f"`skeleton` must be a Skeleton, got {type(skeleton).__name__}")
+    target = finite_float(target, "target")
     d = skeleton.dim
     check_shape(target, "target", (..., d))
     j = skeleton.num_joints
@@ -302,24 +342,10 @@ def solve_ik(
     if not -j <= effector < j:
         raise ValueError(f"`effector` must be a joint index in [-{j}, {j}), got {effector}")
     if limits is not None:
-        limits = as_float(limits, "limits").astype(target.dtype)
+        limits = finite_float(limits, "limits").astype(target.dtype)
         check_shape(limits, "limits", k_shape + (2,))
-    if active is None:
-        # Only the effector's ancestors move it; fixing the rest keeps the problem regular.
-        active, p = [], skeleton.parents[effector % j]
-        while p >= 0:
-            active, p = [p, *active], skeleton.parents[p]
-    if not active:
-        raise ValueError(f"joint {effector} has no ancestors to move it (a root effector)")
-    active = jnp.array(sorted(set(int(a) % j for a in active)), int)
-    if initial is None:
-        raw0 = jnp.zeros(k_shape, target.dtype)
-        base = limit_angles(raw0, limits)
-    else:
-        initial = as_float(initial, "initial").astype(target.dtype)
-        check_shape(initial, "initial", k_shape)
-        raw0 = _raw_from_angles(initial, limits)
-        base = initial
+    active = _active_joints(skeleton, effector, active)
+    raw0, base = _ik_start(initial, limits, k_shape, target.dtype)
 
     batch = target.shape[:-1]
     raw0 = jnp.broadcast_to(raw0, batch + k_shape)
@@ -337,8 +363,9 @@ def solve_ik(
     def residual(raw):
         return joint_positions(skeleton, pose_of(angles_of(raw)))[..., effector, :] - target
 
-    result = fit(residual, raw0[idx], method=method, max_steps=max_steps,
-                 learning_rate=learning_rate)
+    result = fit(
+        residual, raw0[idx], method=method, max_steps=max_steps, learning_rate=learning_rate
+    )
     angles = angles_of(result.params)
     glob = forward_kinematics(skeleton, pose_of(angles))
     return IKResult(angles, glob, glob[..., effector, :d, d], result)
