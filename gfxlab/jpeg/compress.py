@@ -17,7 +17,7 @@ from jaxtyping import Array, Float
 from gfxlab._checks import as_float
 from gfxlab.jpeg import _libjpeg as L
 from gfxlab.jpeg import stages as S
-from gfxlab.jpeg._tables import CHROMINANCE_TABLE, LUMINANCE_TABLE, SUBSAMPLING
+from gfxlab.jpeg._tables import SUBSAMPLING, ijg_tables
 
 __all__ = ["compress", "exact_tables"]
 
@@ -34,11 +34,7 @@ def exact_tables(quality) -> tuple[Array, Array]:
     `(luminance, chrominance)` int32 `(8, 8)` tables, equal to `quant_tables`.
     """
     q = jnp.clip(jnp.round(jnp.asarray(quality)), 1, 100).astype(jnp.int32)
-    scale = jnp.where(q < 50, 5000 // q, 200 - 2 * q)
-    return tuple(
-        jnp.clip((jnp.asarray(t, jnp.int32) * scale + 50) // 100, 1, 255)
-        for t in (LUMINANCE_TABLE, CHROMINANCE_TABLE)
-    )
+    return ijg_tables(q, jnp)
 
 
 def _exact(image, quality, factors):

@@ -29,6 +29,8 @@ from gfxlab.jpeg._tables import (
     SUBSAMPLING,
     ZIGZAG,
     huffman_codes,
+    ijg_scale,
+    ijg_tables,
 )
 
 __all__ = [
@@ -298,10 +300,6 @@ def idct2(coefficients: Float[Array, "*batch 8 8"]) -> Float[Array, "*batch 8 8"
     return c.T @ x @ c
 
 
-def _quality_int(quality) -> int:
-    return static_int(quality, "quality", minimum=1)
-
-
 def quant_tables(quality: int = 50) -> tuple[Array, Array]:
     """IJG quality scaling of the Annex K tables, as libjpeg's `jpeg_set_quality`.
 
@@ -317,17 +315,13 @@ def quant_tables(quality: int = 50) -> tuple[Array, Array]:
 
     `(luminance, chrominance)`, two `(8, 8)` int32 arrays (natural order).
     """
-    quality = _quality_int(quality)
+    quality = static_int(quality, "quality", minimum=1)
     if quality > 100:
         raise ValueError(f"`quality` must be in 1..100, got {quality}")
-    scale = 5000 // quality if quality < 50 else 200 - 2 * quality
-    return tuple(
-        jnp.asarray(np.clip((t.astype(np.int64) * scale + 50) // 100, 1, 255), jnp.int32)
-        for t in (LUMINANCE_TABLE, CHROMINANCE_TABLE)
-    )
+    return tuple(jnp.asarray(t) for t in ijg_tables(quality, np))
 
 
-_SCALES = np.array([5000 // q if q < 50 else 200 - 2 * q for q in range(1, 101)], float)
+_SCALES = np.array([ijg_scale(q) for q in range(1, 101)], float)
 
 
 def quant_tables_continuous(quality) -> tuple[Array, Array]:
