@@ -99,7 +99,14 @@ def huffman_codes(spec) -> dict[int, tuple[int, int]]:
     `{symbol: (code, length)}`. Raises `ValueError` if the lengths oversubscribe
     the code space.
     """
-    bits, values = spec
+    try:
+        bits, values = (tuple(int(v) for v in part) for part in spec)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"`spec` must be a (BITS, HUFFVAL) pair of integer sequences, got {spec!r}"
+        ) from None
+    if len(bits) != 16 or min(bits + values, default=0) < 0 or max(values, default=0) > 255:
+        raise ValueError("`spec` must hold 16 code counts (BITS) and byte symbols (HUFFVAL)")
     codes: dict[int, tuple[int, int]] = {}
     code = 0
     k = 0

@@ -14,7 +14,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from gfxlab._checks import as_float
+from gfxlab._checks import check_shape, finite_float, value_error_if
 from gfxlab.jpeg import _libjpeg as L
 from gfxlab.jpeg import stages as S
 from gfxlab.jpeg._tables import SUBSAMPLING, ijg_tables
@@ -33,7 +33,7 @@ def exact_tables(quality) -> tuple[Array, Array]:
 
     `(luminance, chrominance)` int32 `(8, 8)` tables, equal to `quant_tables`.
     """
-    q = jnp.clip(jnp.round(jnp.asarray(quality)), 1, 100).astype(jnp.int32)
+    q = jnp.clip(jnp.round(finite_float(quality, "quality")), 1, 100).astype(jnp.int32)
     return ijg_tables(q, jnp)
 
 
@@ -107,7 +107,7 @@ def compress(
 
     The decoded image, same shape and dtype as `image`.
     """
-    image = as_float(image, "image")
+    image = finite_float(image, "image")
     if image.ndim == 3 and image.shape[-1] == 1:
         return compress(image[..., 0], quality=quality, subsampling=subsampling, rounding=rounding)[
             ..., None
@@ -118,7 +118,7 @@ def compress(
         raise ValueError(f"`subsampling` must be one of {sorted(SUBSAMPLING)}, got {subsampling!r}")
     if rounding not in ("ste", "cubic"):
         raise ValueError(f"`rounding` must be 'ste' or 'cubic', got {rounding!r}")
-    quality = as_float(quality, "quality")
+    quality = finite_float(quality, "quality")
     if quality.ndim != 0:
         raise ValueError(f"`quality` must be a scalar, got shape {quality.shape}")
     quality = quality.astype(image.dtype)
@@ -139,5 +139,12 @@ def psnr(a, b, *, peak: float = 1.0) -> Array:
 
     Scalar PSNR (inf for identical images).
     """
-    mse = jnp.mean((jnp.asarray(a, float) - jnp.asarray(b, float)) ** 2)
+    a, b = finite_float(a, "a"), finite_float(b, "b")
+    check_shape(b, "b", a.shape)
+    if a.size == 0:
+        raise ValueError("`a` and `b` must not be empty")
+    peak = finite_float(peak, "peak")
+    check_shape(peak, "peak", ())
+    peak = value_error_if(peak, peak <= 0, "`peak` must be positive (the largest value)")
+    mse = jnp.mean((a - b) ** 2)
     return 10 * jnp.log10(peak**2 / mse)
