@@ -4,11 +4,14 @@ The value is computed by the bit-exact integer pipeline (`_libjpeg.forward` then
 `_libjpeg.inverse`, in `jax.numpy`, jittable): exactly what Pillow gives for
 `Image.open(save(image, quality=round(q)))`. Gradients come from a floating-point
 twin of the same pipeline (`gfxlab.jpeg.stages`) whose rounding is straight-through
-or cubic and whose quantization tables are a smooth function of `quality`; the two
+(dead-zone aware by default) or cubic and whose quantization tables are a smooth
+function of `quality`; the two
 are joined as `twin + stop_gradient(exact - twin)`.
 """
 
 from __future__ import annotations
+
+import functools
 
 import jax
 import jax.numpy as jnp
@@ -82,7 +85,7 @@ def compress(
     *,
     quality,
     subsampling: str = "4:2:0",
-    rounding: str = "ste",
+    rounding: str = "deadzone",
 ) -> Float[Array, "H W *channels"]:
     """Differentiable JPEG round trip (encode then decode).
 
@@ -90,8 +93,14 @@ def compress(
     `quality=round(quality)` and reading back), pixels in [0, 1]. Backward: a float
     twin of the pipeline with `rounding`:
 
-    - `"ste"`: straight-through rounding (`d round(x)/dx = 1`);
-    - `"cubic"`: soft rounding `round(x) + (x - round(x))**3`.
+    - `"deadzone"` (default): straight-through for the image; w.r.t. the tables
+      (so `quality`) a coefficient rounded to zero counts a quarter. Checked against
+      central differences of the exact pipeline (the staircase in `quality`): right
+      sign and within 2x at q = 20, 50, 80 on test photos;
+    - `"ste"`: straight-through rounding (`d round(x)/dx = 1`); its d/d(quality) is
+      2-4x too large (dead-zone coefficients count as if they still moved);
+    - `"cubic"`: soft rounding `round(x) + (x - round(x))**3`; its d/d(quality)
+      can have the wrong sign (use it for image gradients only).
 
     `quality` is continuous: the twin's tables follow IJG's scale curve smoothly, so
     `d image / d quality` is finite on all of [1, 100].
@@ -101,7 +110,7 @@ def compress(
     - `image`: `(H, W, 3)` RGB or `(H, W)` grey, float in [0, 1].
     - `quality`: scalar in [1, 100] (may be traced).
     - `subsampling`: `"4:4:4"`, `"4:2:2"` or `"4:2:0"` (ignored for grey).
-    - `rounding`: `"ste"` or `"cubic"`.
+    - `rounding`: `"deadzone"`, `"ste"` or `"cubic"`.
 
     **Returns:**
 
@@ -116,15 +125,21 @@ def compress(
         raise ValueError(f"`image` must have shape (H, W) or (H, W, 3), got {image.shape}")
     if subsampling not in SUBSAMPLING:
         raise ValueError(f"`subsampling` must be one of {sorted(SUBSAMPLING)}, got {subsampling!r}")
-    if rounding not in ("ste", "cubic"):
-        raise ValueError(f"`rounding` must be 'ste' or 'cubic', got {rounding!r}")
+    if rounding not in ("deadzone", "ste", "cubic"):
+        raise ValueError(f"`rounding` must be 'deadzone', 'ste' or 'cubic', got {rounding!r}")
     quality = finite_float(quality, "quality")
     if quality.ndim != 0:
         raise ValueError(f"`quality` must be a scalar, got shape {quality.shape}")
     quality = quality.astype(image.dtype)
-    factors = [(1, 1)] if image.ndim == 2 else [SUBSAMPLING[subsampling], (1, 1), (1, 1)]
-    twin = _twin(image, quality, factors, rounding)
-    return twin + jax.lax.stop_gradient(_exact(image, quality, factors) - twin)
+    factors = ((1, 1),) if image.ndim == 2 else (SUBSAMPLING[subsampling], (1, 1), (1, 1))
+    return _compress(image, quality, factors, rounding)
+
+
+@functools.partial(jax.jit, static_argnums=(2, 3))
+def _compress(image, quality, factors, rounding):
+    """The array work of `compress`, one compiled program per shape and options."""
+    twin = _twin(image, quality, list(factors), rounding)
+    return twin + jax.lax.stop_gradient(_exact(image, quality, list(factors)) - twin)
 
 
 def psnr(a, b, *, peak: float = 1.0) -> Array:

@@ -378,8 +378,11 @@ def quantize(coefficients: Array, table: Array, *, rounding: str = "nearest") ->
     - `coefficients`: `(..., 8, 8)` DCT coefficients.
     - `table`: `(8, 8)` quantization table (positive).
     - `rounding`: `"nearest"` (plain rounding, zero gradient), `"ste"` (straight-
-      through: gradient of the identity) or `"cubic"` (soft rounding
-      `r + (x - r)**3`, `r = round(x)`).
+      through: gradient of the identity), `"deadzone"` (straight-through for the
+      coefficients, but w.r.t. the table a coefficient rounded to zero counts a
+      quarter: it stays zero as the step grows, which straight-through ignores, and
+      so overstates d/d(step) 2-4x) or `"cubic"` (soft rounding `r + (x - r)**3`,
+      `r = round(x)`).
 
     **Returns:**
 
@@ -393,9 +396,16 @@ def quantize(coefficients: Array, table: Array, *, rounding: str = "nearest") ->
         return r
     if rounding == "ste":
         return y + jax.lax.stop_gradient(r - y)
+    if rounding == "deadzone":
+        # value r; d/dx as straight-through; d(q * t)/dt = w (r - y), w = 1/4 at r = 0.
+        w = jnp.where(r == 0, 0.25, 1.0)
+        c = jax.lax.stop_gradient((w - 1) * (r - y) / t)
+        return r + (y - jax.lax.stop_gradient(y)) + c * (t - jax.lax.stop_gradient(t))
     if rounding == "cubic":
         return r + (y - r) ** 3
-    raise ValueError(f"`rounding` must be 'nearest', 'ste' or 'cubic', got {rounding!r}")
+    raise ValueError(
+        f"`rounding` must be 'nearest', 'ste', 'deadzone' or 'cubic', got {rounding!r}"
+    )
 
 
 def dequantize(quantized: Array, table: Array) -> Array:
