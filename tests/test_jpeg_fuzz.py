@@ -63,10 +63,24 @@ def _mutate(data: bytes, rng: np.random.Generator) -> bytes:
     return bytes(arr)
 
 
+def _return_freed_memory() -> None:
+    """Make glibc give large freed blocks back to the system at once (a fixed mmap
+    threshold and no heap-top slack), so that the resident high-water mark counts what
+    a call allocates even when earlier calls freed as much."""
+    import ctypes
+
+    libc = ctypes.CDLL("libc.so.6")
+    m_trim_threshold, m_mmap_threshold = -1, -3
+    if not (libc.mallopt(m_mmap_threshold, 1 << 16) and libc.mallopt(m_trim_threshold, 1 << 16)):
+        raise OSError("mallopt failed")
+    libc.malloc_trim(0)
+
+
 def peak_bytes_of(fn):
     """Peak memory `fn()` adds, and its result. On Linux: the resident set's high-water
     mark (reset through /proc/self/clear_refs), which counts every allocation (NumPy,
-    XLA) at full speed; elsewhere tracemalloc (Python and NumPy allocations only)."""
+    XLA) at full speed; elsewhere (no /proc, no glibc) tracemalloc (Python and NumPy
+    allocations only)."""
     status, clear = Path("/proc/self/status"), Path("/proc/self/clear_refs")
 
     def field(name):
@@ -74,6 +88,7 @@ def peak_bytes_of(fn):
         return int(line.split()[1]) * 1024
 
     try:
+        _return_freed_memory()
         clear.write_text("5")
     except OSError:
         tracemalloc.start()
