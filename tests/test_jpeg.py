@@ -409,7 +409,7 @@ def test_compress_grey_and_channel_axis():
     np.testing.assert_allclose(np.asarray(out[..., 0]) * 255, ref, atol=1e-9)
 
 
-@pytest.mark.parametrize("rounding", ["ste", "cubic"])
+@pytest.mark.parametrize("rounding", ["deadzone", "ste", "cubic"])
 def test_compress_gradients_finite_over_quality(rounding):
     img = jnp.asarray(photo(8, 16, seed=8) / 255.0)
     loss = jax.jit(

@@ -21,7 +21,7 @@ from gfxlab.jpeg._tables import (
     ZIGZAG,
     huffman_codes,
 )
-from gfxlab.jpeg.codec import JPEGError, coefficients, decode, encode
+from gfxlab.jpeg.codec import MAX_PIXELS, JPEGError, coefficients, decode, encode
 from gfxlab.jpeg.compress import compress, exact_tables, psnr
 from gfxlab.jpeg.stages import (
     DCT_MATRIX,
@@ -54,6 +54,7 @@ __all__ = [
     "DC_LUMINANCE",
     "JPEGError",
     "LUMINANCE_TABLE",
+    "MAX_PIXELS",
     "SUBSAMPLING",
     "ZIGZAG",
     "blocks",

@@ -99,7 +99,14 @@ def huffman_codes(spec) -> dict[int, tuple[int, int]]:
     `{symbol: (code, length)}`. Raises `ValueError` if the lengths oversubscribe
     the code space.
     """
-    bits, values = spec
+    try:
+        bits, values = (tuple(int(v) for v in part) for part in spec)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"`spec` must be a (BITS, HUFFVAL) pair of integer sequences, got {spec!r}"
+        ) from None
+    if len(bits) != 16 or min(bits + values, default=0) < 0 or max(values, default=0) > 255:
+        raise ValueError("`spec` must hold 16 code counts (BITS) and byte symbols (HUFFVAL)")
     codes: dict[int, tuple[int, int]] = {}
     code = 0
     k = 0
@@ -114,3 +121,29 @@ def huffman_codes(spec) -> dict[int, tuple[int, int]]:
             raise ValueError("Huffman code lengths oversubscribe the code space")
         code <<= 1
     return codes
+
+
+def ijg_scale(quality, xp=np):
+    """IJG's quality -> table scale in percent (`jpeg_quality_scaling`): `5000 // q`
+    below 50, else `200 - 2 q`. `quality` is an int (or an int array, NumPy or JAX:
+    `xp` is `numpy` or `jax.numpy`), already clipped to 1..100.
+
+    This is the one place the scale curve lives: `quant_tables`, `encode`,
+    `compress` and `quant_tables_continuous` all use it.
+    """
+    if xp is np and isinstance(quality, int | np.integer):
+        return 5000 // quality if quality < 50 else 200 - 2 * quality
+    return xp.where(quality < 50, 5000 // xp.maximum(quality, 1), 200 - 2 * quality)
+
+
+def ijg_tables(quality, xp=np):
+    """libjpeg's `jpeg_set_quality(quality, force_baseline=TRUE)`: the Annex K tables
+    scaled by `ijg_scale(quality)`, `(base * scale + 50) // 100` clamped to 1..255.
+
+    **Returns:** `(luminance, chrominance)` int32 `(8, 8)` arrays of module `xp`.
+    """
+    scale = ijg_scale(quality, xp)
+    return tuple(
+        xp.clip((xp.asarray(base, np.int32) * scale + 50) // 100, 1, 255).astype(np.int32)
+        for base in (LUMINANCE_TABLE, CHROMINANCE_TABLE)
+    )

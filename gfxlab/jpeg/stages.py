@@ -18,7 +18,14 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from gfxlab._checks import as_float, check_last_dim, static_int
+from gfxlab._checks import (
+    check_finite,
+    check_last_dim,
+    finite_float,
+    static_int,
+    static_shape,
+    value_error_if,
+)
 from gfxlab.jpeg._tables import (
     AC_CHROMINANCE,
     AC_LUMINANCE,
@@ -29,6 +36,8 @@ from gfxlab.jpeg._tables import (
     SUBSAMPLING,
     ZIGZAG,
     huffman_codes,
+    ijg_scale,
+    ijg_tables,
 )
 
 __all__ = [
@@ -78,7 +87,7 @@ def rgb_to_ycbcr(rgb: Float[Array, "*batch 3"]) -> Float[Array, "*batch 3"]:
 
     `(..., 3)` Y, Cb, Cr.
     """
-    rgb = as_float(rgb, "rgb")
+    rgb = finite_float(rgb, "rgb")
     check_last_dim(rgb, "rgb", (3,), "RGB")
     m = jnp.asarray(_RGB_TO_YCC, rgb.dtype)
     return rgb @ m.T + jnp.asarray(_OFFSET, rgb.dtype)
@@ -95,7 +104,7 @@ def ycbcr_to_rgb(ycbcr: Float[Array, "*batch 3"]) -> Float[Array, "*batch 3"]:
 
     `(..., 3)` RGB.
     """
-    ycbcr = as_float(ycbcr, "ycbcr")
+    ycbcr = finite_float(ycbcr, "ycbcr")
     check_last_dim(ycbcr, "ycbcr", (3,), "Y, Cb, Cr")
     m = jnp.asarray(np.linalg.inv(_RGB_TO_YCC), ycbcr.dtype)
     return (ycbcr - jnp.asarray(_OFFSET, ycbcr.dtype)) @ m.T
@@ -108,9 +117,11 @@ def _factors(subsampling) -> tuple[int, int]:
 
 
 def _plane(x, name):
-    x = as_float(x, name)
-    if x.ndim < 2:
-        raise ValueError(f"`{name}` must have shape (..., H, W), got shape {tuple(x.shape)}")
+    x = finite_float(x, name)
+    if x.ndim < 2 or x.shape[-2] < 1 or x.shape[-1] < 1:
+        raise ValueError(
+            f"`{name}` must have shape (..., H, W) with H, W >= 1, got shape {tuple(x.shape)}"
+        )
     return x
 
 
@@ -165,8 +176,7 @@ def upsample(
     `(..., H, W)`.
     """
     x = _plane(chroma, "chroma")
-    rows = static_int(shape[0], "shape[0]", minimum=1)
-    cols = static_int(shape[1], "shape[1]", minimum=1)
+    rows, cols = static_shape(shape, "shape")
     h, v = _factors(subsampling)
     if method not in ("fancy", "nearest"):
         raise ValueError(f"`method` must be 'fancy' or 'nearest', got {method!r}")
@@ -218,11 +228,10 @@ def unblocks(block_array: Float[Array, "*batch R C n n"], shape: tuple[int, int]
 
     `(..., H, W)`.
     """
-    x = as_float(block_array, "block_array")
-    if x.ndim < 4 or x.shape[-1] != x.shape[-2]:
+    x = finite_float(block_array, "block_array")
+    if x.ndim < 4 or x.shape[-1] != x.shape[-2] or 0 in x.shape[-4:]:
         raise ValueError(f"`block_array` must have shape (..., R, C, n, n), got {x.shape}")
-    rows = static_int(shape[0], "shape[0]", minimum=1)
-    cols = static_int(shape[1], "shape[1]", minimum=1)
+    rows, cols = static_shape(shape, "shape")
     r, c, n = x.shape[-4], x.shape[-3], x.shape[-1]
     if rows > r * n or cols > c * n:
         raise ValueError(f"`shape` {shape} is larger than the blocks cover ({r * n}, {c * n})")
@@ -242,7 +251,7 @@ def level_shift(samples: Array, *, inverse: bool = False) -> Array:
 
     The shifted values (centred on 0: -128..127).
     """
-    x = as_float(samples, "samples")
+    x = finite_float(samples, "samples")
     return x + 128.0 if inverse else x - 128.0
 
 
@@ -260,7 +269,7 @@ DCT_MATRIX.setflags(write=False)
 
 
 def _check_block(x, name):
-    x = as_float(x, name)
+    x = finite_float(x, name)
     if x.ndim < 2 or x.shape[-2:] != (8, 8):
         raise ValueError(f"`{name}` must have shape (..., 8, 8), got shape {tuple(x.shape)}")
     return x
@@ -298,10 +307,6 @@ def idct2(coefficients: Float[Array, "*batch 8 8"]) -> Float[Array, "*batch 8 8"
     return c.T @ x @ c
 
 
-def _quality_int(quality) -> int:
-    return static_int(quality, "quality", minimum=1)
-
-
 def quant_tables(quality: int = 50) -> tuple[Array, Array]:
     """IJG quality scaling of the Annex K tables, as libjpeg's `jpeg_set_quality`.
 
@@ -317,17 +322,13 @@ def quant_tables(quality: int = 50) -> tuple[Array, Array]:
 
     `(luminance, chrominance)`, two `(8, 8)` int32 arrays (natural order).
     """
-    quality = _quality_int(quality)
+    quality = static_int(quality, "quality", minimum=1)
     if quality > 100:
         raise ValueError(f"`quality` must be in 1..100, got {quality}")
-    scale = 5000 // quality if quality < 50 else 200 - 2 * quality
-    return tuple(
-        jnp.asarray(np.clip((t.astype(np.int64) * scale + 50) // 100, 1, 255), jnp.int32)
-        for t in (LUMINANCE_TABLE, CHROMINANCE_TABLE)
-    )
+    return tuple(jnp.asarray(t) for t in ijg_tables(quality, np))
 
 
-_SCALES = np.array([5000 // q if q < 50 else 200 - 2 * q for q in range(1, 101)], float)
+_SCALES = np.array([ijg_scale(q) for q in range(1, 101)], float)
 
 
 def quant_tables_continuous(quality) -> tuple[Array, Array]:
@@ -346,7 +347,7 @@ def quant_tables_continuous(quality) -> tuple[Array, Array]:
 
     `(luminance, chrominance)` float `(8, 8)` tables.
     """
-    q = jnp.clip(as_float(quality, "quality"), 1.0, 100.0)
+    q = jnp.clip(finite_float(quality, "quality"), 1.0, 100.0)
     if q.ndim != 0:
         raise ValueError(f"`quality` must be a scalar, got shape {q.shape}")
     scales = jnp.asarray(_SCALES, q.dtype)
@@ -358,6 +359,11 @@ def quant_tables_continuous(quality) -> tuple[Array, Array]:
         jnp.clip(jnp.asarray(t, q.dtype) * scale / 100.0, 1.0, 255.0)
         for t in (LUMINANCE_TABLE, CHROMINANCE_TABLE)
     )
+
+
+def _positive_table(table):
+    t = _check_block(table, "table")
+    return value_error_if(t, t <= 0, "`table` must hold positive quantizer steps (no zero)")
 
 
 def _round_half_away(x):
@@ -372,24 +378,34 @@ def quantize(coefficients: Array, table: Array, *, rounding: str = "nearest") ->
     - `coefficients`: `(..., 8, 8)` DCT coefficients.
     - `table`: `(8, 8)` quantization table (positive).
     - `rounding`: `"nearest"` (plain rounding, zero gradient), `"ste"` (straight-
-      through: gradient of the identity) or `"cubic"` (soft rounding
-      `r + (x - r)**3`, `r = round(x)`).
+      through: gradient of the identity), `"deadzone"` (straight-through for the
+      coefficients, but w.r.t. the table a coefficient rounded to zero counts a
+      quarter: it stays zero as the step grows, which straight-through ignores, and
+      so overstates d/d(step) 2-4x) or `"cubic"` (soft rounding `r + (x - r)**3`,
+      `r = round(x)`).
 
     **Returns:**
 
     The quantized coefficients (float, integral values for `"nearest"`/`"ste"`).
     """
     x = _check_block(coefficients, "coefficients")
-    t = _check_block(table, "table")
+    t = _positive_table(table)
     y = x / t
     r = jax.lax.stop_gradient(_round_half_away(y))
     if rounding == "nearest":
         return r
     if rounding == "ste":
         return y + jax.lax.stop_gradient(r - y)
+    if rounding == "deadzone":
+        # value r; d/dx as straight-through; d(q * t)/dt = w (r - y), w = 1/4 at r = 0.
+        w = jnp.where(r == 0, 0.25, 1.0)
+        c = jax.lax.stop_gradient((w - 1) * (r - y) / t)
+        return r + (y - jax.lax.stop_gradient(y)) + c * (t - jax.lax.stop_gradient(t))
     if rounding == "cubic":
         return r + (y - r) ** 3
-    raise ValueError(f"`rounding` must be 'nearest', 'ste' or 'cubic', got {rounding!r}")
+    raise ValueError(
+        f"`rounding` must be 'nearest', 'ste', 'deadzone' or 'cubic', got {rounding!r}"
+    )
 
 
 def dequantize(quantized: Array, table: Array) -> Array:
@@ -407,6 +423,19 @@ def dequantize(quantized: Array, table: Array) -> Array:
     return _check_block(quantized, "quantized") * _check_block(table, "table")
 
 
+def _array(x, name):
+    """`x` as a JAX array of numbers (ints stay ints), finite if float."""
+    if x is None:
+        raise TypeError(f"`{name}` must be an array of numbers, got None")
+    try:
+        arr = jnp.asarray(x)
+    except TypeError as err:
+        raise TypeError(f"`{name}` must be array-like of numbers, got {type(x).__name__}") from err
+    if jnp.issubdtype(arr.dtype, jnp.inexact):
+        arr = check_finite(arr, name)
+    return arr
+
+
 def zigzag(block: Array) -> Array:
     """Read 8 x 8 blocks in zig-zag order (low to high frequency).
 
@@ -418,7 +447,7 @@ def zigzag(block: Array) -> Array:
 
     `(..., 64)`: `block.reshape(..., 64)[..., ZIGZAG]`.
     """
-    x = jnp.asarray(block)
+    x = _array(block, "block")
     if x.ndim < 2 or x.shape[-2:] != (8, 8):
         raise ValueError(f"`block` must have shape (..., 8, 8), got shape {tuple(x.shape)}")
     return x.reshape(*x.shape[:-2], 64)[..., ZIGZAG]
@@ -435,15 +464,41 @@ def unzigzag(sequence: Array) -> Array:
 
     `(..., 8, 8)`.
     """
-    x = jnp.asarray(sequence)
+    x = _array(sequence, "sequence")
     if x.ndim < 1 or x.shape[-1] != 64:
         raise ValueError(f"`sequence` must have shape (..., 64), got shape {tuple(x.shape)}")
     return x[..., np.argsort(ZIGZAG)].reshape(*x.shape[:-1], 8, 8)
 
 
+def _integer(value, name: str) -> int:
+    if isinstance(value, bool) or value is None:
+        raise TypeError(f"`{name}` must be an integer, got {value!r}")
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"`{name}` must be an integer, got {value!r}") from None
+    if not np.isfinite(number) or number != int(number):
+        raise ValueError(f"`{name}` must be an integer, got {value!r}")
+    return int(number)
+
+
 def category(value: int) -> int:
     """JPEG magnitude category (SSSS): the bit length of `|value|`."""
-    return int(abs(int(value))).bit_length()
+    return abs(_integer(value, "value")).bit_length()
+
+
+def _integers(x, name: str, size: int) -> np.ndarray:
+    """`x` as a NumPy int64 vector of `size` integral values."""
+    if x is None:
+        raise TypeError(f"`{name}` must be an array of integers, got None")
+    arr = np.asarray(jax.device_get(x) if isinstance(x, jax.Array) else x)
+    if arr.shape != (size,):
+        raise ValueError(f"`{name}` must have shape ({size},), got shape {arr.shape}")
+    if not (np.issubdtype(arr.dtype, np.number) or arr.dtype == bool):
+        raise TypeError(f"`{name}` must hold numbers, got dtype {arr.dtype}")
+    if not np.all(np.isfinite(arr)) or not np.all(arr == np.round(arr)):
+        raise ValueError(f"`{name}` must hold finite integers (quantized coefficients)")
+    return arr.astype(np.int64)
 
 
 def run_length(ac) -> list[tuple[int, int]]:
@@ -461,11 +516,7 @@ def run_length(ac) -> list[tuple[int, int]]:
 
     List of `(run, value)` pairs.
     """
-    ac = np.asarray(ac)
-    if ac.shape != (63,):
-        raise ValueError(f"`ac` must have shape (63,), got shape {ac.shape}")
-    if not np.all(ac == np.round(ac)):
-        raise ValueError("`ac` must hold integers (quantized coefficients)")
+    ac = _integers(ac, "ac", 63)
     out: list[tuple[int, int]] = []
     run = 0
     for v in ac.astype(np.int64).tolist():
@@ -504,13 +555,18 @@ def huffman_code_block(
     `("DC diff -26", "11100", "00101")`; concatenating the bit strings gives the
     block's bit stream.
     """
-    zz = np.asarray(coefficients)
-    if zz.shape != (64,):
-        raise ValueError(f"`coefficients` must have shape (64,), got shape {zz.shape}")
+    zz = _integers(coefficients, "coefficients", 64)
+    diff = int(zz[0]) - _integer(previous_dc, "previous_dc")
+    if abs(diff) > 2047:
+        raise ValueError(
+            f"the DC difference `coefficients[0] - previous_dc` = {diff} is outside "
+            "-2047..2047 (baseline categories 0..11)"
+        )
+    if np.abs(zz[1:]).max() > 1023:
+        raise ValueError("AC `coefficients` must lie in -1023..1023 (baseline categories 1..10)")
     dc_codes = huffman_codes(DC_CHROMINANCE if chroma else DC_LUMINANCE)
     ac_codes = huffman_codes(AC_CHROMINANCE if chroma else AC_LUMINANCE)
     out = []
-    diff = int(zz[0]) - int(previous_dc)
     size = category(diff)
     code, length = dc_codes[size]
     extra = diff if diff >= 0 else diff + (1 << size) - 1

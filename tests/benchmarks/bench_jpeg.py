@@ -2,17 +2,22 @@
 
 - `encode` of a 512 x 512 RGB photograph-like image at quality 75, and the fraction of
   byte-identical files over a set of images, qualities and subsamplings;
-- `decode` of the same file;
+- `decode` of Pillow files (512 x 512 RGB q75 4:2:0, and a 512 x 512 q95 4:4:4 photo
+  with film grain, ~600 KB) against Pillow, and its peak memory above input + output;
 - `compress` (differentiable round trip) against Pillow's real round trip: PSNR over
-  q = 1..95 (identical outputs have infinite PSNR);
-- a longer fuzz run of `decode` on mutated files.
+  q = 1..95 (identical outputs have infinite PSNR); against Kornia's
+  `jpeg_codec_differentiable` when torch and kornia are installed (the `bench` extra);
+- a long fuzz run of `decode` on mutated files (`BENCH_JPEG_FUZZ` cases, 10^5 by
+  default): each must end in an image or `JPEGError`, in bounded memory.
 """
 
 from __future__ import annotations
 
 import io
+import os
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import jax
@@ -48,6 +53,76 @@ def _pillow(img, quality, subsampling="4:2:0") -> bytes:
     return buf.getvalue()
 
 
+def _grain(height: int, width: int, seed: int) -> np.ndarray:
+    """A photo-like image with strong film grain: large q95 files (~600 KB at 512^2)."""
+    rng = np.random.default_rng(seed)
+    y, x = np.mgrid[:height, :width]
+    img = np.stack([128 + 100 * np.sin(x / 5 + y / 7), 128 + 80 * np.cos(x / 3), y / 2.0], -1)
+    return np.clip(img + rng.normal(0, 60, img.shape), 0, 255).astype(np.uint8)
+
+
+def _pillow_decode(data: bytes) -> np.ndarray:
+    return np.asarray(Image.open(io.BytesIO(data)))
+
+
+def _decode_rows(table: Table, photo: np.ndarray) -> None:
+    sys.path.insert(0, str(Path(__file__).parents[1]))
+    from test_jpeg_fuzz import peak_bytes_of
+
+    cases = [
+        ("decode 512x512 RGB q=75 4:2:0 (Pillow file)", _pillow(photo, 75)),
+        ("decode 512x512 grey q=75", _pillow(photo[..., 1].copy(), 75)),
+        ("decode 512x512 RGB q=95 4:4:4 grain", _pillow(_grain(512, 512, 9), 95, "4:4:4")),
+    ]
+    for name, data in cases:
+        start = time.perf_counter()
+        decoded = jpeg.decode(data)
+        first = time.perf_counter() - start
+        same = np.array_equal(decoded, _pillow_decode(data))
+        ours, theirs = timeit_pair(
+            lambda d=data: jpeg.decode(d), lambda d=data: _pillow_decode(d), repeat=7, warmup=1
+        )
+        peak, out = peak_bytes_of(lambda d=data: jpeg.decode(d))
+        extra = (peak - len(data) - out.nbytes) / 1e6
+        table.add(
+            name,
+            ours,
+            theirs,
+            f"{len(data) // 1000} KB; pixels identical: {same}; peak memory above input + "
+            f"output {extra:.1f} MB; first call {first:.2f} s",
+        )
+
+
+def _kornia_row(table: Table, photo: np.ndarray) -> None:
+    """`compress` against Kornia's differentiable JPEG (only with torch + kornia)."""
+    try:
+        import kornia
+        import torch
+    except ImportError:
+        table.add("compress vs Kornia", 0.0, None, "skipped: torch/kornia not installed")
+        return
+    img = photo[:256, :256] / 255.0
+    x = jnp.asarray(img)
+    fwd = jax.jit(lambda x: jpeg.compress(x, quality=75.0))
+    grad = jax.jit(jax.grad(lambda x: jnp.sum(jpeg.compress(x, quality=75.0))))
+    t = torch.tensor(img.transpose(2, 0, 1)[None], dtype=torch.float32, requires_grad=True)
+    q = torch.tensor([75.0])
+
+    def kornia_grad():
+        t.grad = None
+        kornia.enhance.jpeg_codec_differentiable(t, q).sum().backward()
+
+    table.add(
+        "compress 256x256 q=75 forward vs Kornia",
+        *timeit_pair(
+            lambda: fwd(x), lambda: kornia.enhance.jpeg_codec_differentiable(t, q), repeat=7
+        ),
+    )
+    table.add(
+        "grad of compress 256x256 vs Kornia", *timeit_pair(lambda: grad(x), kornia_grad, repeat=5)
+    )
+
+
 def main() -> None:
     photo = _scene(512, 512, 0)
     table = Table("gfxlab.jpeg vs Pillow (libjpeg-turbo)", "Pillow")
@@ -74,14 +149,7 @@ def main() -> None:
         timeit(lambda: jpeg.encode(small, quality=75), repeat=21),
         timeit(lambda: _pillow(small, 75), repeat=21),
     )
-    decoded = jpeg.decode(data)
-    ref = np.asarray(Image.open(io.BytesIO(data)))
-    table.add(
-        "decode 512x512 RGB q=75",
-        timeit(lambda: jpeg.decode(data), repeat=3),
-        timeit(lambda: np.asarray(Image.open(io.BytesIO(data))), repeat=5),
-        f"pixels identical: {np.array_equal(decoded, ref)}",
-    )
+    _decode_rows(table, photo)
 
     # byte identity over a set of images
     same = total = 0
@@ -123,24 +191,24 @@ def main() -> None:
     )
     grad = jax.jit(jax.grad(lambda x, q: jnp.sum(jpeg.compress(x, quality=q) ** 2), (0, 1)))
     table.add("grad of compress 512x512 (jit)", timeit(lambda: grad(x, 75.0), repeat=3))
+    _kornia_row(table, photo)
 
     # long fuzz run
     sys.path.insert(0, str(Path(__file__).parents[1]))
-    from test_jpeg_fuzz import SEEDS, _mutate
+    from test_jpeg_fuzz import peak_bytes_of, run_fuzz
 
-    rng = np.random.default_rng(99)
-    outcomes = {"decoded": 0, "JPEGError": 0}
+    n = int(os.environ.get("BENCH_JPEG_FUZZ", 100_000))
+    run_fuzz(200, 1)  # compile what the decoded images need
     start = time.perf_counter()
-    n = 20000
-    for case in range(n):
-        try:
-            jpeg.decode(_mutate(SEEDS[case % len(SEEDS)], rng))
-            outcomes["decoded"] += 1
-        except jpeg.JPEGError:
-            outcomes["JPEGError"] += 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        peak, outcomes = peak_bytes_of(lambda: run_fuzz(n, 99))
     elapsed = time.perf_counter() - start
     table.add(
-        f"fuzz decode, {n} mutated files", elapsed / n, None, f"{outcomes}, no other exception"
+        f"fuzz decode, {n} mutated files",
+        elapsed / n,
+        None,
+        f"{outcomes}, no other exception; peak memory {peak / 1e6:.1f} MB above the start",
     )
     table.print()
 

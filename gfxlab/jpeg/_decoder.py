@@ -1,0 +1,371 @@
+"""`decode`: baseline JPEG files, pixel for pixel as libjpeg-turbo decodes them.
+
+The markers are parsed in Python; the scan is entropy-decoded by `_entropy` into a
+preallocated coefficient array; the pixels are then reconstructed exactly as
+libjpeg-turbo does by default (islow IDCT, fancy upsampling, its colour tables),
+vectorized over all blocks: NumPy for small images, one compiled XLA program per
+image geometry for large ones.
+
+The colour space follows libjpeg's rules (`jdapimin.c`): one component is grey;
+three are YCbCr when a JFIF marker is present, else as an Adobe APP14 marker's
+transform says (0: RGB, no conversion), else RGB when the component ids are 'R', 'G',
+'B', else YCbCr.
+"""
+
+from __future__ import annotations
+
+import functools
+import warnings
+
+import numpy as np
+
+from gfxlab.jpeg import _libjpeg as L
+from gfxlab.jpeg._entropy import HuffmanTable, JPEGError, decode_scan
+from gfxlab.jpeg._tables import ZIGZAG
+
+__all__ = ["JPEGError", "MAX_PIXELS", "decode"]
+
+#: Default pixel limit of `decode` (Pillow's `Image.MAX_IMAGE_PIXELS`): a file whose
+#: frame declares more pixels is refused before anything is allocated.
+MAX_PIXELS = 89_478_485
+
+_UNSUPPORTED_SOF = {
+    0xC2: "progressive JPEG",
+    0xC3: "lossless JPEG",
+    0xC5: "hierarchical (differential sequential) JPEG",
+    0xC6: "hierarchical (differential progressive) JPEG",
+    0xC7: "hierarchical (differential lossless) JPEG",
+    0xC9: "arithmetic-coded JPEG",
+    0xCA: "arithmetic-coded progressive JPEG",
+    0xCB: "arithmetic-coded lossless JPEG",
+    0xCD: "arithmetic-coded hierarchical JPEG",
+    0xCE: "arithmetic-coded hierarchical JPEG",
+    0xCF: "arithmetic-coded hierarchical JPEG",
+    0xCC: "arithmetic coding (DAC marker)",
+}
+# From this many pixels on, the reconstruction runs as a compiled XLA program.
+_COMPILE_FROM_PIXELS = 1 << 16
+
+
+def _parse_sof(seg: bytes, max_pixels):
+    if len(seg) < 6:
+        raise JPEGError("truncated SOF segment")
+    precision, height, width, n = seg[0], int.from_bytes(seg[1:3]), int.from_bytes(seg[3:5]), seg[5]
+    if precision != 8:
+        raise JPEGError(f"unsupported sample precision {precision} bits (only 8-bit baseline)")
+    if height == 0:
+        raise JPEGError("unsupported: image height 0 (DNL marker)")
+    if width == 0:
+        raise JPEGError("corrupt SOF: image width 0")
+    if max_pixels is not None and height * width > max_pixels:
+        raise JPEGError(
+            f"image of {width} x {height} = {width * height} pixels exceeds the limit "
+            f"`max_pixels` = {max_pixels} (a decompression-bomb guard; raise it to decode)"
+        )
+    if n == 4:
+        raise JPEGError("unsupported: 4-component (CMYK or YCCK) JPEG; only grey and 3-colour")
+    if n not in (1, 3):
+        raise JPEGError(f"unsupported number of components {n} (only grey or 3-colour)")
+    if len(seg) != 6 + 3 * n:
+        raise JPEGError("corrupt SOF segment length")
+    comps = []
+    for i in range(n):
+        cid, hv, tq = seg[6 + 3 * i : 9 + 3 * i]
+        h, v = hv >> 4, hv & 15
+        if not (1 <= h <= 4 and 1 <= v <= 4) or tq > 3:
+            raise JPEGError(f"corrupt SOF: component {cid} sampling {h}x{v}, table {tq}")
+        comps.append((cid, h, v, tq))
+    if len({c[0] for c in comps}) != n:
+        raise JPEGError("corrupt SOF: duplicate component ids")
+    hmax = max(c[1] for c in comps)
+    vmax = max(c[2] for c in comps)
+    if any(hmax % c[1] or vmax % c[2] for c in comps):
+        raise JPEGError("unsupported: fractional sampling factors")
+    return height, width, comps
+
+
+def _parse_dqt(seg: bytes, tables: dict):
+    i = 0
+    while i < len(seg):
+        precision, tid = seg[i] >> 4, seg[i] & 15
+        size = 64 * (precision + 1)
+        if precision > 1 or tid > 3 or i + 1 + size > len(seg):
+            raise JPEGError("corrupt DQT segment")
+        raw = np.frombuffer(seg[i + 1 : i + 1 + size], ">u2" if precision else np.uint8)
+        table = np.zeros(64, np.int64)
+        table[ZIGZAG] = raw
+        if np.any(table == 0):
+            raise JPEGError("corrupt DQT segment: zero quantizer")
+        tables[tid] = table.reshape(8, 8)
+        i += 1 + size
+
+
+def _parse_dht(seg: bytes, tables: dict):
+    i = 0
+    while i < len(seg):
+        if i + 17 > len(seg):
+            raise JPEGError("truncated DHT segment")
+        tc, th = seg[i] >> 4, seg[i] & 15
+        bits = tuple(seg[i + 1 : i + 17])
+        count = sum(bits)
+        if tc > 1 or th > 3 or count > 256 or i + 17 + count > len(seg):
+            raise JPEGError("corrupt DHT segment (bad Huffman table header)")
+        values = tuple(seg[i + 17 : i + 17 + count])
+        tables[tc, th] = _huffman_table(bits, values, tc)
+        i += 17 + count
+
+
+@functools.lru_cache(maxsize=64)
+def _huffman_table(bits: tuple, values: tuple, table_class: int) -> HuffmanTable:
+    """Decode tables, cached: most files use the same few (Annex K or Pillow's)."""
+    return HuffmanTable((bits, values), table_class)
+
+
+def _scan_end(d: bytes, start: int) -> int:
+    """Index of the first marker (not RSTn, not a stuffed 0xFF00) after `start`, or
+    the end of the file."""
+    arr = np.frombuffer(d, np.uint8, offset=start)
+    ff = np.flatnonzero(arr[:-1] == 0xFF)
+    nxt = arr[ff + 1]
+    real = ff[(nxt != 0) & ((nxt < 0xD0) | (nxt > 0xD7))]
+    return start + int(real[0]) if real.size else len(d)
+
+
+def _cdiv(a: int, b: int) -> int:
+    return -(-a // b)
+
+
+class _State:
+    """What the markers before the scan said."""
+
+    def __init__(self, max_pixels):
+        self.max_pixels = max_pixels
+        self.quant: dict = {}
+        self.huff: dict = {}
+        self.frame = None
+        self.restart = 0
+        self.jfif = False
+        self.adobe = None  # the Adobe APP14 transform, if seen
+
+    def segment(self, marker: int, seg: bytes) -> None:
+        if marker in _UNSUPPORTED_SOF:
+            raise JPEGError(f"unsupported: {_UNSUPPORTED_SOF[marker]} (only baseline is decoded)")
+        if marker in (0xC0, 0xC1):
+            if self.frame is not None:
+                raise JPEGError("corrupt JPEG: more than one frame header")
+            self.frame = _parse_sof(seg, self.max_pixels)
+        elif marker == 0xC4:
+            _parse_dht(seg, self.huff)
+        elif marker == 0xDB:
+            _parse_dqt(seg, self.quant)
+        elif marker == 0xDD:
+            if len(seg) != 2:
+                raise JPEGError("corrupt DRI segment")
+            self.restart = int.from_bytes(seg)
+        elif marker == 0xE0 and seg[:5] == b"JFIF\x00":
+            self.jfif = True
+        elif marker == 0xEE and seg[:5] == b"Adobe" and len(seg) >= 12:
+            self.adobe = seg[11]
+
+    def colour(self) -> str:
+        """libjpeg-turbo's `default_decompress_parms` for 1 or 3 components."""
+        comps = self.frame[2]
+        if len(comps) == 1:
+            return "grey"
+        if self.jfif:
+            return "ycc"
+        if self.adobe is not None:
+            return "rgb" if self.adobe == 0 else "ycc"
+        return "rgb" if tuple(c[0] for c in comps) == (82, 71, 66) else "ycc"
+
+
+def _decode(d: bytes, max_pixels) -> np.ndarray:
+    n = len(d)
+    if n < 4 or d[0] != 0xFF or d[1] != 0xD8:
+        raise JPEGError("not a JPEG file: missing SOI marker")
+    state = _State(max_pixels)
+    image = None
+    pos = 2
+    while True:  # every pass consumes at least one byte, so this ends
+        if pos >= n:
+            if image is None:
+                raise JPEGError("truncated JPEG: no EOI marker")
+            warnings.warn("JPEG file has no EOI marker after its scan", stacklevel=3)
+            return image
+        if d[pos] != 0xFF:
+            raise JPEGError(f"corrupt JPEG: expected a marker at byte {pos}")
+        while pos < n and d[pos] == 0xFF:
+            pos += 1
+        if pos >= n:
+            raise JPEGError("truncated JPEG: file ends inside a marker")
+        marker = d[pos]
+        pos += 1
+        if marker == 0xD9:
+            if image is None:
+                raise JPEGError("corrupt JPEG: EOI before any image data")
+            return image
+        if marker == 0x01:
+            continue
+        if marker == 0xD8 or 0xD0 <= marker <= 0xD7 or marker == 0x00:
+            raise JPEGError(f"corrupt JPEG: unexpected marker 0xFF{marker:02X} at byte {pos - 2}")
+        if pos + 2 > n:
+            raise JPEGError("truncated JPEG: file ends inside a marker segment")
+        length = int.from_bytes(d[pos : pos + 2])
+        if length < 2 or pos + length > n:
+            raise JPEGError(f"truncated or corrupt JPEG: marker 0xFF{marker:02X} segment length")
+        seg = d[pos + 2 : pos + length]
+        pos += length
+        if marker != 0xDA:
+            state.segment(marker, seg)
+            continue
+        if state.frame is None:
+            raise JPEGError("corrupt JPEG: scan before frame header")
+        if image is not None:
+            raise JPEGError("unsupported: more than one scan (only single-scan baseline)")
+        end = _scan_end(d, pos)
+        image = _decode_image(state, seg, d[pos:end])
+        pos = end
+
+
+def _scan_plan(state: _State, sos: bytes):
+    """Component order and per-block Huffman plan of the scan header `sos`."""
+    comps = state.frame[2]
+    if len(sos) < 1 or len(sos) != 4 + 2 * sos[0]:
+        raise JPEGError("corrupt SOS segment")
+    ns = sos[0]
+    if ns != len(comps):
+        raise JPEGError("unsupported: scan does not contain every component (multi-scan)")
+    ss, se, ahal = sos[1 + 2 * ns :]
+    if (ss, se, ahal) != (0, 63, 0):
+        raise JPEGError("unsupported: spectral selection / successive approximation")
+    ids = [c[0] for c in comps]
+    order, plan = [], []
+    for j in range(ns):
+        cid, tables = sos[1 + 2 * j], sos[2 + 2 * j]
+        if cid not in ids or ids.index(cid) in order:
+            raise JPEGError(f"corrupt SOS: unknown or repeated component {cid}")
+        i = ids.index(cid)
+        td, ta = tables >> 4, tables & 15
+        if (0, td) not in state.huff or (1, ta) not in state.huff:
+            raise JPEGError(f"corrupt JPEG: missing Huffman table for component {cid}")
+        if comps[i][3] not in state.quant:
+            raise JPEGError(f"corrupt JPEG: missing quantization table for component {cid}")
+        order.append(i)
+        blocks = 1 if ns == 1 else comps[i][1] * comps[i][2]
+        plan += [(j, state.huff[0, td], state.huff[1, ta])] * blocks
+    if ns > 1 and len(plan) > 10:
+        raise JPEGError("corrupt SOF: more than 10 blocks per MCU")
+    return order, plan
+
+
+def _decode_image(state: _State, sos: bytes, data: bytes) -> np.ndarray:
+    height, width, comps = state.frame
+    order, plan = _scan_plan(state, sos)
+    hmax = max(c[1] for c in comps)
+    vmax = max(c[2] for c in comps)
+    if len(order) == 1:
+        _, h, v, _ = comps[order[0]]
+        n_mcu = _cdiv(_cdiv(height * v, vmax), 8) * _cdiv(_cdiv(width * h, hmax), 8)
+    else:
+        n_mcu = _cdiv(width, 8 * hmax) * _cdiv(height, 8 * vmax)
+    coef = decode_scan(data, plan, n_mcu, state.restart)
+    tables = np.stack([state.quant[c[3]] for c in comps]).astype(np.int32)
+    geometry = (height, width, tuple((c[1], c[2]) for c in comps), tuple(order), state.colour())
+    if height * width >= _COMPILE_FROM_PIXELS:
+        return np.asarray(_compiled_reconstruction(geometry)(coef, tables))
+    return _reconstruct(coef, tables, geometry, np)
+
+
+def _blocks_per_component(coef, geometry, xp):
+    """Scan-order zig-zag blocks `(N, 64)` -> per frame component, natural order,
+    `(rows, cols, 8, 8)` real blocks."""
+    height, width, factors, order, _ = geometry
+    natural = coef[:, np.argsort(ZIGZAG)]
+    hmax = max(f[0] for f in factors)
+    vmax = max(f[1] for f in factors)
+    out = {}
+    if len(order) == 1:
+        h, v = factors[order[0]]
+        rows = _cdiv(_cdiv(height * v, vmax), 8)
+        cols = _cdiv(_cdiv(width * h, hmax), 8)
+        out[order[0]] = natural.reshape(rows, cols, 8, 8)
+        return out
+    mcu_x, mcu_y = _cdiv(width, 8 * hmax), _cdiv(height, 8 * vmax)
+    per_mcu = natural.reshape(mcu_y * mcu_x, -1, 64)
+    first = 0
+    for i in order:
+        h, v = factors[i]
+        part = per_mcu[:, first : first + h * v].reshape(mcu_y, mcu_x, v, h, 8, 8)
+        first += h * v
+        grid = part.transpose(0, 2, 1, 3, 4, 5).reshape(mcu_y * v, mcu_x * h, 8, 8)
+        rows = _cdiv(_cdiv(height * v, vmax), 8)
+        cols = _cdiv(_cdiv(width * h, hmax), 8)
+        out[i] = grid[:rows, :cols]
+    return out
+
+
+def _reconstruct(coef, tables, geometry, xp):
+    """Coefficients -> uint8 pixels: dequantize, islow IDCT, upsample, colour."""
+    height, width, factors, _, colour = geometry
+    coef = coef.astype(np.int64 if xp is np else np.int32)
+    per_comp = _blocks_per_component(coef, geometry, xp)
+    n = len(factors)
+    planes = L.inverse(
+        [per_comp[i] for i in range(n)], list(factors), [tables[i] for i in range(n)],
+        height, width, xp,
+    )  # fmt: skip
+    if colour == "grey":
+        return planes[0].astype(np.uint8)
+    if colour == "rgb":
+        return xp.stack(planes, axis=-1).astype(np.uint8)
+    return L.ycc_to_rgb(*planes, xp)
+
+
+@functools.lru_cache(maxsize=32)
+def _compiled_reconstruction(geometry):
+    import jax
+    import jax.numpy as jnp
+
+    return jax.jit(lambda coef, tables: _reconstruct(coef, tables, geometry, jnp))
+
+
+def decode(data, *, max_pixels: int | None = MAX_PIXELS) -> np.ndarray:
+    """Decode a baseline JPEG file exactly as libjpeg-turbo does by default (islow
+    IDCT, fancy upsampling), e.g. as Pillow's `Image.open(...)`.
+
+    Memory stays proportional to the image (its coefficients and pixels, about 3x the
+    decoded size) plus a few times the file size; the number of pixels is bounded by
+    `max_pixels` before anything is allocated (Pillow's decompression-bomb limit).
+    Colour follows libjpeg: JFIF files are YCbCr; Adobe-marked (transform 0) or
+    'R', 'G', 'B'-labelled files are RGB and are not colour-converted. A file that
+    ends after a complete scan without its EOI marker decodes with a warning.
+
+    **Arguments:**
+
+    - `data`: the file's bytes (`bytes`, `bytearray` or `memoryview`).
+    - `max_pixels`: refuse frames of more pixels than this (`None`: no limit).
+
+    **Returns:**
+
+    `(H, W, 3)` uint8 RGB, or `(H, W)` uint8 for a greyscale file.
+
+    Raises `JPEGError` (a `ValueError`) for anything that is not a well-formed
+    baseline (or extended sequential Huffman, 8-bit) JPEG with one scan and 1 or 3
+    components: garbage, truncated files, bad tables, progressive, arithmetic-coded,
+    lossless, 12-bit, CMYK/YCCK files, or frames over `max_pixels`. Every loop is
+    bounded by the input length.
+    """
+    if not isinstance(data, bytes | bytearray | memoryview):
+        raise TypeError(f"`data` must be bytes, got {type(data).__name__}")
+    if max_pixels is not None:
+        if isinstance(max_pixels, bool) or not isinstance(max_pixels, int | np.integer):
+            raise TypeError(f"`max_pixels` must be an int or None, got {max_pixels!r}")
+        if max_pixels < 1:
+            raise ValueError(f"`max_pixels` must be >= 1, got {max_pixels}")
+    d = bytes(data)
+    try:
+        return _decode(d, max_pixels)
+    except JPEGError:
+        raise
+    except (IndexError, ValueError, OverflowError, KeyError) as err:  # defensive net
+        raise JPEGError(f"corrupt JPEG: {err}") from None
