@@ -89,10 +89,12 @@ def _fragments(points, sub, slot_mask, ids, params, *, soft, eps):
     depth = 1.0 / total  # (P, K) eye depth
     nearest = jnp.argmin(jnp.where(cover, depth, jnp.inf), -1)
     hit = jnp.any(cover, -1)
-    b_near = jnp.take_along_axis(persp, nearest[:, None, None], 1)[:, 0]
+    b_near = jnp.where(
+        hit[:, None], jnp.take_along_axis(persp, nearest[:, None, None], 1)[:, 0], 0.0
+    )
     face = jnp.where(hit, ids[nearest], -1).astype(tri.dtype)
     if not soft:
-        values = jnp.einsum("pv,pva->pa", b_near, attrs[nearest])
+        values = jnp.einsum("pv,pva->pa", b_near, attrs[nearest])  # zero where empty
         weight = hit.astype(tri.dtype)
         alpha = weight
         out_depth = jnp.where(hit, jnp.take_along_axis(depth, nearest[:, None], 1)[:, 0], far)
