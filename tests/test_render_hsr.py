@@ -144,3 +144,7 @@ def test_bad_inputs():
             method(triangles, colors[:2], (8, 8))
         with pytest.raises(ValueError, match="shape"):
             method(triangles, colors, (8,))
+    with pytest.raises(TypeError, match="quadtree"):
+        R.quadtree_cells("x", (8, 8))
+    with pytest.raises(ValueError, match="quadtree"):
+        R.quadtree_cells((np.zeros((1, 1), int), np.zeros((3, 3), int)), (8, 8))

@@ -180,6 +180,14 @@ def test_bad_inputs():
         R.soft_silhouette(vertices, jnp.array([0, 1, 2]), (8, 8), sigma=1.0)
     with pytest.raises(ValueError, match="vertices_2d"):
         R.soft_silhouette(jnp.zeros((3, 3)), faces, (8, 8), sigma=1.0)
+    # a NaN vertex is an error, not a silently dropped triangle (eagerly and under jit)
+    with pytest.raises(ValueError, match="vertices_2d"):
+        R.soft_silhouette(vertices.at[1, 0].set(jnp.nan), faces, (8, 8), sigma=1.0)
+    with pytest.raises(Exception, match="vertices_2d"):
+        jitted = jax.jit(lambda v: R.soft_silhouette(v, faces, (8, 8), sigma=1.0))
+        jax.block_until_ready(jitted(vertices.at[1, 0].set(jnp.inf)))
+    with pytest.raises(ValueError, match="faces"):
+        R.soft_silhouette(vertices, jnp.array([[0, 1, -1]]), (8, 8), sigma=1.0)
     with pytest.raises(ValueError, match="sigma"):
         R.soft_silhouette(vertices, faces, (8, 8), sigma=0.0)
     with pytest.raises(ValueError, match="shape"):
