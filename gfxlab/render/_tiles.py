@@ -116,9 +116,11 @@ TRACED_ALL_FACES = 256
 
 
 def round_capacity(count: int, faces: int) -> int:
-    """A capacity of at least `count`: the next power of two (few recompilations), at most
-    the number of faces, at least 1."""
-    return max(1, min(faces, 1 << max(3, math.ceil(math.log2(max(count, 1))))))
+    """A capacity of at least `count`, rounded up to one of four steps per octave (8, 10,
+    12, 14, 16, 20, ...: few recompilations, little waste), at most the number of faces."""
+    count = max(count, 1)
+    step = max(1, 1 << max(0, count.bit_length() - 3))
+    return max(1, min(faces, max(8, -(-count // step) * step)))
 
 
 def tiled(
@@ -126,10 +128,14 @@ def tiled(
 ):
     """Evaluate `pixel_fn(points, faces_subset, slot_mask, ids)` over the image, tile by tile.
 
-    Returns `(image (H, W, ...), max_faces_in_a_tile)`.
+    Tiles are processed in steps of `tiles_per_step`, busiest first; a step whose tiles
+    see no face at all is skipped (`lax.cond`) and gets the empty-tile value, so the
+    cost follows the area the geometry covers. Returns `(image (H, W, ...),
+    max_faces_in_a_tile)`.
     """
     points = tile_points(shape, tile_size, tri.dtype)
     box = _face_boxes(tri, margin)
+    total = points.shape[0]
 
     @jax.checkpoint
     def shade(points, ids, slot_mask, faces):
@@ -145,19 +151,36 @@ def tiled(
         else:
             ids = jnp.arange(tri.shape[0])
             slot_mask = valid
-            count = jnp.sum(valid, dtype=jnp.int32)
-        return shade(points, ids, slot_mask, faces), count
+        return shade(points, ids, slot_mask, faces)
 
-    # pad the tile list to whole steps (one compiled body, no remainder pass)
-    total = points.shape[0]
+    counts = jax.vmap(lambda p: jnp.sum(_overlaps(box, valid, p), dtype=jnp.int32))(points)
+    # the value of a tile without faces (constant over its pixels)
+    ids0 = jnp.zeros(1, jnp.int32)
+    empty = pixel_fn(
+        points[0, :1], jax.tree_util.tree_map(lambda a: a[ids0], faces), jnp.zeros(1, bool), ids0
+    )
+    order = jnp.argsort(-counts)  # busiest tiles first: empty ones gather in whole steps
     batch = min(tiles_per_step, total)
     steps = -(-total // batch)
-    padded = jnp.concatenate([points, jnp.repeat(points[-1:], steps * batch - total, 0)])
-    tiles, counts = jax.lax.map(
-        jax.vmap(one_tile), padded.reshape((steps, batch) + points.shape[1:])
+    order = jnp.concatenate([order, jnp.repeat(order[-1:], steps * batch - total)])
+    order = order.reshape(steps, batch)
+
+    def step(tile_ids):
+        def work(tile_ids):
+            return jax.vmap(one_tile)(points[tile_ids])
+
+        def skip(tile_ids):
+            return jnp.broadcast_to(empty, (batch, points.shape[1]) + empty.shape[1:])
+
+        return jax.lax.cond(counts[tile_ids[0]] > 0, work, skip, tile_ids)
+
+    tiles = jax.lax.map(step, order).reshape((steps * batch, points.shape[1]) + empty.shape[1:])
+    inverse = (
+        jnp.zeros(total, jnp.int32)
+        .at[order.reshape(-1)[:total]]
+        .set(jnp.arange(total, dtype=jnp.int32))
     )
-    tiles = tiles.reshape((steps * batch,) + tiles.shape[2:])[:total]
-    return untile(tiles, shape, tile_size), jnp.max(counts)
+    return untile(tiles[inverse], shape, tile_size), jnp.max(counts)
 
 
 def check_capacity(image, max_count, capacity, tile_size):

@@ -399,7 +399,7 @@ def render(
     antialias: bool = True,
     eps: float = 1e-4,
     eps_background: float = 1e-3,
-    tile_size: int = 16,
+    tile_size: int = 8,
     capacity: int | None = None,
     tiles_per_step: int = 16,
 ) -> Rendering:

@@ -78,7 +78,7 @@ def soft_silhouette(
     *,
     sigma: float | Float[Array, ""],
     eps: float = 1e-4,
-    tile_size: int = 16,
+    tile_size: int = 8,
     capacity: int | None = None,
     tiles_per_step: int = 16,
 ) -> Float[Array, "H W"]:
@@ -183,7 +183,7 @@ def tile_capacity(
     *,
     sigma,
     eps: float = 1e-4,
-    tile_size: int = 16,
+    tile_size: int = 8,
     slack: float = 1.0,
 ) -> int:
     """The tile capacity a render of `mesh` by `camera` needs (call it outside `jax.jit`).
@@ -220,7 +220,7 @@ def soft_rasterize(
     ambient: float = 0.3,
     eps: float = 1e-4,
     eps_background: float = 1e-3,
-    tile_size: int = 16,
+    tile_size: int = 8,
     capacity: int | None = None,
     tiles_per_step: int = 16,
 ) -> tuple[Float[Array, "H W 4"], Float[Array, "H W"]]:
