@@ -9,7 +9,7 @@ textures, and the classic hidden-surface algorithms.
   `PointLight`/`DirectionalLight`, `sample_texture` (bilinear, differentiable).
 - Soft rasterization building blocks (module `soft`): `soft_silhouette` of 2D
   triangles, the flat-shaded `soft_rasterize`, `tile_capacity`.
-- Hidden-surface removal (module `hsr`): `zbuffer`, `painter`, `warnock`, `scanline`
+- Hidden-surface removal (module `hsr`): `zbuffer`, `painter`, `warnock`, `scanline`, `raycast`
   on screen-space triangle scenes made by `screen_scene`.
 
 All distances are in pixels with the project's pixel convention (`gfxlab._pixels`: y up,
@@ -21,6 +21,7 @@ from .hsr import (
     VisibilityResult,
     painter,
     quadtree_cells,
+    raycast,
     scanline,
     screen_scene,
     warnock,
@@ -57,6 +58,7 @@ __all__ = [
     "painter",
     "warnock",
     "scanline",
+    "raycast",
     "quadtree_cells",
     "WARNOCK_CODES",
 ]

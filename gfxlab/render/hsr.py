@@ -2,7 +2,7 @@
 
 Scenes are `(F, 3, 3)` triangles (pixel x, pixel y, depth; smaller depth is nearer,
 depth affine across each triangle such as NDC z): `zbuffer`, `painter` (depth sort),
-`warnock` (area subdivision) and `scanline`. A pixel is covered by a triangle when its
+`warnock` (area subdivision), `scanline` and `raycast`. A pixel is covered by a triangle when its
 centre lies inside or on the triangle; all four methods pick the nearest covering
 triangle (ties: the lower index) unless the scene has cyclic overlaps, where `painter`
 fails. `screen_scene` turns a mesh and a camera into such a scene.
@@ -34,6 +34,7 @@ __all__ = [
     "painter",
     "warnock",
     "scanline",
+    "raycast",
     "quadtree_cells",
     "WARNOCK_CODES",
 ]
@@ -448,6 +449,38 @@ def quadtree_cells(quadtree, shape: tuple[int, int]) -> np.ndarray:
         keep = (c * s < width) & (top < height)
         rows.append(np.stack([x0, y0, x1, y1, np.full_like(x0, level), code[r, c]], -1)[keep])
     return np.concatenate(rows) if rows else np.zeros((0, 6))
+
+
+@functools.partial(jax.jit, static_argnames=("shape",))
+def raycast(
+    triangles: Float[Array, "F 3 3"],
+    colors: Float[Array, "F C"],
+    shape: tuple[int, int],
+    *,
+    background=0.0,
+) -> VisibilityResult:
+    """Ray casting: through every pixel centre a ray is tested against every polygon and
+    the nearest hit is kept.
+
+    Cost `pixels x polygons` intersection tests without a spatial data structure (the
+    seed's `O(#pixels, #objects)`); memory is the frame buffer plus the object database
+    (the triangles). Arguments as for `zbuffer`; no depth buffer (`depth` is None).
+    Counters: `polygon_tests` (ray-polygon intersection tests) and `depth_tests`
+    (comparisons of hits along a ray).
+    """
+    background = _with_background(colors, background)
+    shape, triangles, colors, background, valid = _prepare_scene(
+        triangles, colors, shape, background
+    )
+    owner, _, hits = _nearest(pixel_centers(shape, triangles.dtype), triangles, valid)
+    image = _compose(owner, colors, background)
+    database = triangles.size * triangles.dtype.itemsize + colors.size * colors.dtype.itemsize
+    counters = {
+        "memory_bytes": _int(image.size * image.dtype.itemsize + database),
+        "depth_tests": jnp.sum(jnp.maximum(hits - 1, 0)),
+        "polygon_tests": _int(shape[0] * shape[1] * triangles.shape[0]),
+    }
+    return VisibilityResult(image, None, counters)
 
 
 @functools.partial(jax.jit, static_argnames=("shape",))
