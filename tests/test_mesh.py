@@ -152,3 +152,110 @@ def test_bad_inputs(tmp_path):
         M.read_obj(bad)
     with pytest.raises(TypeError, match="mesh"):
         M.write_obj(bad, "not a mesh")
+    # issue 17: NaN vertices, out-of-range (also -1) indices, sizes, non-numbers, binary files
+    with pytest.raises(ValueError, match="vertices"):
+        M.Mesh(jnp.array([[0.0, 0, 0], [1, 0, 0], [0, jnp.nan, 0]]), jnp.array([[0, 1, 2]]))
+    for faces in (jnp.array([[0, 1, 3]]), jnp.array([[0, 1, -1]])):
+        with pytest.raises(ValueError, match="faces"):
+            M.face_normals(jnp.eye(3), faces)
+        with pytest.raises(ValueError, match="faces"):
+            M.vertex_normals(jnp.eye(3), faces)
+        with pytest.raises(Exception, match="faces"):  # under jit too
+            jax.block_until_ready(jax.jit(M.face_normals)(jnp.eye(3), faces))
+    with pytest.raises(ValueError, match="subdivisions"):
+        M.icosphere(100)
+    with pytest.raises(TypeError, match="major_radius"):
+        M.torus("abc")
+    with pytest.raises(TypeError, match="size"):
+        M.cube(None)
+    bad.write_bytes(bytes(range(256)) * 4)
+    with pytest.raises(ValueError, match="path"):
+        M.read_obj(bad)
+    with pytest.raises(TypeError, match="path"):
+        M.read_obj(None)
+    with pytest.raises(ValueError, match="uv_faces"):
+        M.Mesh(jnp.eye(3), jnp.array([[0, 1, 2]]), uvs=jnp.zeros((3, 2)))
+    with pytest.raises(ValueError, match="texture"):
+        M.Mesh(jnp.eye(3), jnp.array([[0, 1, 2]]), texture=jnp.ones((2, 2, 3)))
+
+
+def test_read_obj_texture_coordinates_normals_and_diffuse_map(tmp_path):
+    from PIL import Image
+
+    texture = np.zeros((2, 3, 3), np.uint8)
+    texture[0, :, 0] = 255  # top row red
+    texture[1, :, 2] = 255  # bottom row blue
+    Image.fromarray(texture).save(tmp_path / "checker.png")
+    (tmp_path / "square.mtl").write_text("newmtl paint\nKd 1 1 1\nmap_Kd checker.png\n")
+    (tmp_path / "square.obj").write_text(
+        "mtllib square.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+        "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\nusemtl paint\n"
+        "f 1/1/1 2/2/1 3/3/1 4/4/1\n"
+    )
+    mesh = M.read_obj(tmp_path / "square.obj")
+    np.testing.assert_array_equal(mesh.uv_faces, [[0, 1, 2], [0, 2, 3]])
+    np.testing.assert_allclose(mesh.uvs[2], [1, 1])
+    np.testing.assert_allclose(mesh.normals, [[0, 0, 1]])
+    np.testing.assert_array_equal(mesh.normal_faces, np.zeros((2, 3)))
+    np.testing.assert_allclose(mesh.texture, texture / 255.0)
+    # written back with vt/vn and read again
+    M.write_obj(tmp_path / "again.obj", mesh)
+    again = M.read_obj(tmp_path / "again.obj")
+    np.testing.assert_allclose(again.uvs, mesh.uvs, atol=1e-6)
+    np.testing.assert_array_equal(again.uv_faces, mesh.uv_faces)
+    np.testing.assert_array_equal(again.normal_faces, mesh.normal_faces)
+
+
+def numpy_laplacian(v, f):
+    neighbours = [[] for _ in v]
+    for face in f:  # a test reference: each face contributes its two edges at a vertex
+        for k in range(3):
+            a, b, c = face[k], face[(k + 1) % 3], face[(k + 2) % 3]
+            neighbours[a] += [b, c]
+    delta = np.array([v[i] - v[n].mean(0) for i, n in enumerate(neighbours)])
+    return np.mean(np.sum(delta**2, -1))
+
+
+def test_mesh_losses_against_numpy():
+    rng = np.random.default_rng(0)
+    sphere = M.icosphere(1)
+    v = np.asarray(sphere.vertices) + rng.normal(0, 0.05, sphere.vertices.shape)
+    f = np.asarray(sphere.faces)
+    assert float(M.laplacian_loss(jnp.asarray(v), f)) == pytest.approx(numpy_laplacian(v, f))
+    edges = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    length = np.linalg.norm(v[edges[:, 1]] - v[edges[:, 0]], axis=-1)
+    assert float(M.edge_length_loss(jnp.asarray(v), f)) == pytest.approx(np.mean(length**2))
+    assert float(M.edge_length_loss(jnp.asarray(v), f, target=0.5)) == pytest.approx(
+        np.mean((length - 0.5) ** 2))
+    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    pairs = {}
+    for index, (a, b) in enumerate(edges):
+        pairs.setdefault((min(a, b), max(a, b)), []).append(index % len(f))
+    cos = [n[i] @ n[j] for i, j in pairs.values()]
+    assert float(M.normal_consistency_loss(M.Mesh(v, f))) == pytest.approx(1 - np.mean(cos))
+    # under jit (faces traced) and with gradients
+    value, grad = jax.jit(jax.value_and_grad(
+        lambda v, f: M.normal_consistency_loss(v, f) + M.laplacian_loss(v, f)))(jnp.asarray(v), f)
+    assert float(value) == pytest.approx(1 - np.mean(cos) + numpy_laplacian(v, f))
+    assert bool(jnp.all(jnp.isfinite(grad)))
+    # a flat sheet is perfectly consistent
+    sheet = M.Mesh(jnp.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]),
+                   jnp.array([[0, 1, 2], [0, 2, 3]]))
+    assert float(M.normal_consistency_loss(sheet)) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_chamfer_distance_against_scipy():
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(1)
+    a, b = rng.normal(size=(40, 3)), rng.normal(size=(25, 3))
+    expected = np.mean(cKDTree(b).query(a)[0] ** 2) + np.mean(cKDTree(a).query(b)[0] ** 2)
+    assert float(M.chamfer_distance(a, b)) == pytest.approx(expected)
+    assert float(M.chamfer_distance(a, a)) == 0.0
+    with pytest.raises(ValueError, match="dimension"):
+        M.chamfer_distance(a, b[:, :2])
+    with pytest.raises(ValueError, match="`b`"):
+        M.chamfer_distance(a, np.zeros((0, 3)))
+    with pytest.raises(ValueError, match="`a`"):
+        M.chamfer_distance(np.full((2, 3), np.nan), b)

@@ -9,7 +9,7 @@ from gfxlab import render as R
 from gfxlab.mesh import cube
 from gfxlab.viewing import Camera
 
-METHODS = [R.zbuffer, R.painter, R.warnock, R.scanline]
+METHODS = [R.zbuffer, R.painter, R.warnock, R.scanline, R.raycast]
 
 
 def layered_scene(seed, count, shape, spread=9.0):
@@ -54,13 +54,19 @@ def test_four_methods_agree_with_a_brute_force_reference(seed):
         match = np.all(np.asarray(result.image) == expected, -1).mean()
         assert match >= 0.998, method.__name__  # pixel centres on edges may differ
         assert result.counters["memory_bytes"] > 0
+    cast = R.raycast(triangles, colors, shape)
+    assert int(cast.counters["polygon_tests"]) == shape[0] * shape[1] * len(triangles)
     z = R.zbuffer(triangles, colors, shape, background=background)
     hit = owner >= 0
     np.testing.assert_allclose(np.asarray(z.depth)[hit], depth[hit], atol=1e-9)
     assert np.all(np.isinf(np.asarray(z.depth)[~hit]))
     assert int(z.counters["memory_bytes"]) == 37 * 45 * (3 + 1) * 8
-    covered = sum(Path(t[:, :2]).contains_points(np.argwhere(np.ones(shape))[:, ::-1] * [1, -1]
-                  + [0, shape[0] - 1]).sum() for t in np.asarray(triangles))
+    covered = sum(
+        Path(t[:, :2])
+        .contains_points(np.argwhere(np.ones(shape))[:, ::-1] * [1, -1] + [0, shape[0] - 1])
+        .sum()
+        for t in np.asarray(triangles)
+    )
     assert abs(int(z.counters["depth_tests"]) - covered) <= 3
 
 
@@ -89,7 +95,7 @@ def test_painter_fails_on_cyclic_overlap_the_others_do_not():
     painted = R.painter(triangles, colors, shape)
     assert int(painted.counters["cycle"]) == 1
     assert np.mean(np.all(np.asarray(painted.image) == expected, -1)) < 0.99
-    for method in (R.zbuffer, R.warnock, R.scanline):
+    for method in (R.zbuffer, R.warnock, R.scanline, R.raycast):
         image = np.asarray(method(triangles, colors, shape).image)
         assert np.mean(np.all(image == expected, -1)) >= 0.998
     # without the cycle (one bar removed) the painter's order is right again
@@ -124,8 +130,9 @@ def test_screen_scene_of_a_cube():
     camera = Camera(jnp.array([2.0, 1.5, 3.0]), near=0.5, far=10.0)
     mesh = cube().with_colors(jnp.array([0.2, 0.6, 0.9]))
     triangles, colors = R.screen_scene(mesh, camera, (40, 40))
-    np.testing.assert_allclose(triangles[..., :2], camera.to_pixels(mesh.vertices, (40, 40))[
-        mesh.faces])
+    np.testing.assert_allclose(
+        triangles[..., :2], camera.to_pixels(mesh.vertices, (40, 40))[mesh.faces]
+    )
     images = [np.asarray(m(triangles, colors, (40, 40)).image) for m in METHODS]
     for image in images[1:]:
         assert np.mean(np.all(image == images[0], -1)) >= 0.995
@@ -144,3 +151,7 @@ def test_bad_inputs():
             method(triangles, colors[:2], (8, 8))
         with pytest.raises(ValueError, match="shape"):
             method(triangles, colors, (8,))
+    with pytest.raises(TypeError, match="quadtree"):
+        R.quadtree_cells("x", (8, 8))
+    with pytest.raises(ValueError, match="quadtree"):
+        R.quadtree_cells((np.zeros((1, 1), int), np.zeros((3, 3), int)), (8, 8))

@@ -150,16 +150,25 @@ def test_gradients_stay_finite_in_degenerate_cases():
     assert bool(jnp.all(jnp.isfinite(g)))
 
 
-def test_overflowing_tile_raises():
+def test_tile_capacity_is_found_grown_or_a_clear_error():
     vertices = jnp.array([[2.0, 2.0], [12.0, 3.0], [5.0, 11.0]] * 5)
     faces = jnp.arange(15).reshape(5, 3)
-    with pytest.raises(ValueError, match="capacity"):
-        R.soft_silhouette(vertices, faces, (16, 16), sigma=1.0, capacity=4)
+    expected = R.soft_silhouette(vertices, faces, (16, 16), sigma=1.0, capacity=5)
+    # eager: too small a capacity is grown (and recompiled) with a warning, never an abort
+    with pytest.warns(RuntimeWarning, match="capacity"):
+        grown = R.soft_silhouette(vertices, faces, (16, 16), sigma=1.0, capacity=4)
+    np.testing.assert_allclose(grown, expected)
+    # capacity=None (the default) measures it
+    np.testing.assert_allclose(R.soft_silhouette(vertices, faces, (16, 16), sigma=1.0), expected)
+    # under jit an explicit capacity that overflows is an error naming `capacity`
     jitted = jax.jit(lambda v: R.soft_silhouette(v, faces, (16, 16), sigma=1.0, capacity=4))
-    with pytest.raises(Exception, match="capacity"):  # equinox's run-time error under jit
+    with pytest.raises(Exception, match="capacity"):
         jax.block_until_ready(jitted(vertices))
-    # enough capacity: fine
-    assert R.soft_silhouette(vertices, faces, (16, 16), sigma=1.0, capacity=5).shape == (16, 16)
+    # ... and with many faces, capacity=None under jit is a trace-time error naming it
+    many = jnp.tile(vertices[:3], (300, 1))
+    many_faces = jnp.arange(900).reshape(300, 3)
+    with pytest.raises(ValueError, match="tile_capacity"):
+        jax.jit(lambda v: R.soft_silhouette(v, many_faces, (16, 16), sigma=1.0))(many)
 
 
 def test_bad_inputs():
@@ -171,6 +180,14 @@ def test_bad_inputs():
         R.soft_silhouette(vertices, jnp.array([0, 1, 2]), (8, 8), sigma=1.0)
     with pytest.raises(ValueError, match="vertices_2d"):
         R.soft_silhouette(jnp.zeros((3, 3)), faces, (8, 8), sigma=1.0)
+    # a NaN vertex is an error, not a silently dropped triangle (eagerly and under jit)
+    with pytest.raises(ValueError, match="vertices_2d"):
+        R.soft_silhouette(vertices.at[1, 0].set(jnp.nan), faces, (8, 8), sigma=1.0)
+    with pytest.raises(Exception, match="vertices_2d"):
+        jitted = jax.jit(lambda v: R.soft_silhouette(v, faces, (8, 8), sigma=1.0))
+        jax.block_until_ready(jitted(vertices.at[1, 0].set(jnp.inf)))
+    with pytest.raises(ValueError, match="faces"):
+        R.soft_silhouette(vertices, jnp.array([[0, 1, -1]]), (8, 8), sigma=1.0)
     with pytest.raises(ValueError, match="sigma"):
         R.soft_silhouette(vertices, faces, (8, 8), sigma=0.0)
     with pytest.raises(ValueError, match="shape"):

@@ -1,0 +1,503 @@
+"""Triangle meshes: a `Mesh` pytree, procedural shapes, normals, OBJ files and mesh losses.
+
+Faces are triangles given as vertex indices, ordered counter-clockwise when seen from
+outside, so `face_normals` point outwards. Procedural meshes are built with NumPy (their
+sizes are static) and returned as JAX arrays, so a `Mesh` can be transformed, rendered
+and fitted like any other pytree.
+
+A `Mesh` may carry per-vertex colours, texture coordinates (`uvs` with their own
+per-corner indices `uv_faces`, as OBJ `vt` and `f v/vt` give them), explicit normals
+(`normals`, `normal_faces`, from OBJ `vn`) and a diffuse `texture` image. This module is
+the one owner of face and colour validation (`check_faces`, `check_colors`); the
+renderer calls it. The losses (`laplacian_loss`, `edge_length_loss`,
+`normal_consistency_loss`) and `chamfer_distance` keep a fitted shape sane.
+
+The model shipped in `data/meshes/` (a chess pawn, a surface of revolution) is written
+by `write_shipped_models`, so the file is reproducible from this code.
+"""
+
+from __future__ import annotations
+
+import os
+import pathlib
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float, Int
+
+from .. import transforms as tf
+from .._checks import (
+    as_float,
+    check_finite,
+    check_shape,
+    safe_norm,
+    static_int,
+    value_error_if,
+)
+
+__all__ = [
+    "Mesh",
+    "cube",
+    "icosphere",
+    "cylinder",
+    "torus",
+    "revolve",
+    "pawn",
+    "face_normals",
+    "vertex_normals",
+    "read_obj",
+    "write_obj",
+    "obj_text",
+    "SHIPPED_MODELS",
+    "DATA_DIR",
+    "shipped_model_path",
+    "write_shipped_models",
+    "check_faces",
+    "check_colors",
+    "laplacian_loss",
+    "edge_length_loss",
+    "normal_consistency_loss",
+    "chamfer_distance",
+    "MAX_SUBDIVISIONS",
+]
+
+#: Largest `icosphere` subdivision level (20 * 4**7 = 327,680 faces).
+MAX_SUBDIVISIONS = 7
+
+#: `data/meshes/` of the repository.
+DATA_DIR = pathlib.Path(__file__).resolve().parent.parent.parent / "data" / "meshes"
+
+
+def check_faces(faces, num_vertices: int, name: str = "faces") -> jax.Array:
+    """`faces` as an integer `(F, 3)` array whose entries index `num_vertices` vertices.
+
+    The one owner of face validation (the `Mesh` constructor, the normals and the
+    renderer call it). Raises `TypeError` for non-integer faces and `ValueError` for a
+    wrong shape or an index outside `0 <= index < num_vertices` (-1 too), eagerly and
+    under `jax.jit` (`equinox.error_if`).
+    """
+    if faces is None:
+        raise TypeError(f"`{name}` must be an (F, 3) array of vertex indices, got None")
+    faces = jnp.asarray(faces)
+    if not jnp.issubdtype(faces.dtype, jnp.integer):
+        raise TypeError(f"`{name}` must hold integer vertex indices, got dtype {faces.dtype}")
+    check_shape(faces, name, (None, 3))
+    return value_error_if(
+        faces,
+        (faces < 0) | (faces >= num_vertices),
+        f"`{name}` must index the {num_vertices} vertices (0 <= index < {num_vertices})",
+    )
+
+
+def check_colors(colors, count: int, name: str = "colors", per: str = "vertex", dtype=None):
+    """`colors` as a float `(count, C)` array: one colour per vertex (or per face).
+
+    The one owner of colour validation (`Mesh` and the hidden-surface methods call it).
+    """
+    colors = as_float(colors, name)
+    if dtype is not None:
+        colors = colors.astype(dtype)
+    if colors.ndim != 2 or colors.shape[0] != count:
+        raise ValueError(
+            f"`{name}` must have shape ({count}, C) (one colour per {per}), got shape "
+            f"{tuple(colors.shape)}"
+        )
+    return colors
+
+
+def _optional_indexed(values, index, name, index_name, width, faces_shape):
+    """Optional per-corner attribute table `values (N, width)` with `index (F, 3)`."""
+    if values is None and index is None:
+        return None, None
+    if values is None or index is None:
+        raise ValueError(f"`{name}` and `{index_name}` must be given together")
+    values = as_float(values, name)
+    check_shape(values, name, (None, width))
+    index = check_faces(index, values.shape[0], index_name)
+    if index.shape != faces_shape:
+        raise ValueError(
+            f"`{index_name}` must have the shape of `faces` {faces_shape}, got {index.shape}"
+        )
+    return values, index
+
+
+class Mesh(eqx.Module):
+    """A triangle mesh.
+
+    **Fields:**
+
+    - `vertices`: `(V, 3)` positions (floating, finite; fitted by `gfxlab.fit`).
+    - `faces`: `(F, 3)` integer vertex indices, counter-clockwise seen from outside
+      (integer, so held fixed by `gfxlab.fit`).
+    - `colors`: optional `(V, C)` per-vertex colours in [0, 1] (usually `C = 3`).
+    - `uvs`, `uv_faces`: optional texture coordinates `(T, 2)` (u right, v up, the
+      texture's lower-left corner at (0, 0)) and their per-corner indices `(F, 3)`.
+    - `normals`, `normal_faces`: optional normals `(N, 3)` and per-corner indices `(F, 3)`
+      (the renderer otherwise uses `vertex_normals`).
+    - `texture`: optional diffuse map `(Ht, Wt, C)` in [0, 1], row 0 at the top.
+    """
+
+    vertices: Float[Array, "V 3"]
+    faces: Int[Array, "F 3"]
+    colors: Float[Array, "V C"] | None = None
+    uvs: Float[Array, "T 2"] | None = None
+    uv_faces: Int[Array, "F 3"] | None = None
+    normals: Float[Array, "N 3"] | None = None
+    normal_faces: Int[Array, "F 3"] | None = None
+    texture: Float[Array, "Ht Wt C"] | None = None
+
+    def __init__(
+        self,
+        vertices,
+        faces,
+        colors=None,
+        *,
+        uvs=None,
+        uv_faces=None,
+        normals=None,
+        normal_faces=None,
+        texture=None,
+    ):
+        vertices = as_float(vertices, "vertices")
+        check_shape(vertices, "vertices", (None, 3))
+        vertices = check_finite(vertices, "vertices")
+        faces = check_faces(faces, vertices.shape[0])
+        if colors is not None:
+            colors = check_colors(colors, vertices.shape[0], dtype=vertices.dtype)
+        uvs, uv_faces = _optional_indexed(uvs, uv_faces, "uvs", "uv_faces", 2, faces.shape)
+        normals, normal_faces = _optional_indexed(
+            normals, normal_faces, "normals", "normal_faces", 3, faces.shape
+        )
+        if texture is not None:
+            texture = as_float(texture, "texture")
+            check_shape(texture, "texture", (None, None, None))
+            if uvs is None:
+                raise ValueError("a `texture` needs texture coordinates `uvs` and `uv_faces`")
+        self.vertices, self.faces, self.colors = vertices, faces, colors
+        self.uvs, self.uv_faces, self.normals, self.normal_faces = (
+            uvs,
+            uv_faces,
+            normals,
+            (normal_faces),
+        )
+        self.texture = texture
+
+    @property
+    def num_vertices(self) -> int:
+        return self.vertices.shape[0]
+
+    @property
+    def num_faces(self) -> int:
+        return self.faces.shape[0]
+
+    def _with(self, **changes) -> Mesh:
+        fields = {
+            k: getattr(self, k)
+            for k in ("colors", "uvs", "uv_faces", "normals", "normal_faces", "texture")
+        }
+        fields.update(changes)
+        vertices = fields.pop("vertices", self.vertices)
+        return Mesh(vertices, self.faces, **fields)
+
+    def triangles(self) -> Float[Array, "F 3 3"]:
+        """The `(F, 3, 3)` corner positions of every face."""
+        return self.vertices[self.faces]
+
+    def transform(self, matrix: Float[Array, "4 4"]) -> Mesh:
+        """The mesh with `matrix` (homogeneous 4x4, column vectors) applied to its vertices.
+
+        Explicit `normals` are dropped (they would need the inverse transpose); the
+        renderer then uses `vertex_normals`.
+        """
+        return self._with(vertices=tf.apply(matrix, self.vertices), normals=None, normal_faces=None)
+
+    def with_colors(self, colors) -> Mesh:
+        """The mesh with per-vertex `colors`; a single colour `(C,)` is used for every vertex."""
+        colors = as_float(colors, "colors")
+        if colors.ndim == 1:
+            colors = jnp.broadcast_to(colors, (self.num_vertices, colors.shape[0]))
+        return self._with(colors=colors)
+
+    def with_vertices(self, vertices) -> Mesh:
+        """The mesh with new vertex positions (same connectivity and attributes)."""
+        return self._with(vertices=vertices)
+
+    def face_normals(self) -> Float[Array, "F 3"]:
+        return face_normals(self.vertices, self.faces)
+
+    def vertex_normals(self) -> Float[Array, "V 3"]:
+        return vertex_normals(self.vertices, self.faces)
+
+
+def face_normals(vertices: Float[Array, "V 3"], faces: Int[Array, "F 3"]) -> Float[Array, "F 3"]:
+    """Unit outward normals of the faces (zero for degenerate faces, with finite gradients).
+
+    Out-of-range face indices are an error (see `check_faces`).
+    """
+    vertices = as_float(vertices, "vertices")
+    check_shape(vertices, "vertices", (None, 3))
+    tri = vertices[check_faces(faces, vertices.shape[0])]
+    n = jnp.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = safe_norm(n, keepdims=True)
+    return n / jnp.where(length > 0, length, 1.0)
+
+
+def vertex_normals(vertices: Float[Array, "V 3"], faces: Int[Array, "F 3"]) -> Float[Array, "V 3"]:
+    """Unit vertex normals: the area-weighted mean of the normals of the faces around each.
+
+    Out-of-range face indices are an error (see `check_faces`).
+    """
+    vertices = as_float(vertices, "vertices")
+    check_shape(vertices, "vertices", (None, 3))
+    faces = check_faces(faces, vertices.shape[0])
+    tri = vertices[faces]
+    area_normal = jnp.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # 2 x area x n
+    summed = jax.ops.segment_sum(
+        jnp.repeat(area_normal, 3, axis=0), faces.reshape(-1), num_segments=vertices.shape[0]
+    )
+    length = safe_norm(summed, keepdims=True)
+    return summed / jnp.where(length > 0, length, 1.0)
+
+
+# ---------------------------------------------------------------------------------------
+# Procedural meshes (NumPy: static sizes)
+
+
+def _real(value, name: str) -> float:
+    """A finite real Python number (procedural mesh sizes are static)."""
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"`{name}` must be a real number, got {value!r}") from None
+    if not np.isfinite(value):
+        raise ValueError(f"`{name}` must be finite, got {value}")
+    return value
+
+
+def _mesh(vertices: np.ndarray, faces: np.ndarray) -> Mesh:
+    return Mesh(jnp.asarray(vertices, dtype=jnp.result_type(float)), jnp.asarray(faces, jnp.int32))
+
+
+def cube(size: float = 1.0) -> Mesh:
+    """An axis-aligned cube of edge `size` centred at the origin (8 vertices, 12 faces)."""
+    corners = np.array(
+        [[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)]
+    ) * _real(size, "size")
+    # index = 4 * (x > 0) + 2 * (y > 0) + (z > 0); quads counter-clockwise from outside
+    quads = np.array(
+        [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]]
+    )
+    faces = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    return _mesh(corners, faces)
+
+
+def icosphere(subdivisions: int = 2, radius: float = 1.0) -> Mesh:
+    """A sphere made by subdividing an icosahedron: `20 * 4**subdivisions` faces."""
+    subdivisions = static_int(subdivisions, "subdivisions", minimum=0, maximum=MAX_SUBDIVISIONS)
+    radius = _real(radius, "radius")
+    t = (1 + 5**0.5) / 2
+    v = np.array(
+        [
+            [-1, t, 0],
+            [1, t, 0],
+            [-1, -t, 0],
+            [1, -t, 0],
+            [0, -1, t],
+            [0, 1, t],
+            [0, -1, -t],
+            [0, 1, -t],
+            [t, 0, -1],
+            [t, 0, 1],
+            [-t, 0, -1],
+            [-t, 0, 1],
+        ],
+        float,
+    )
+    f = np.array(
+        [
+            [0, 11, 5],
+            [0, 5, 1],
+            [0, 1, 7],
+            [0, 7, 10],
+            [0, 10, 11],
+            [1, 5, 9],
+            [5, 11, 4],
+            [11, 10, 2],
+            [10, 7, 6],
+            [7, 1, 8],
+            [3, 9, 4],
+            [3, 4, 2],
+            [3, 2, 6],
+            [3, 6, 8],
+            [3, 8, 9],
+            [4, 9, 5],
+            [2, 4, 11],
+            [6, 2, 10],
+            [8, 6, 7],
+            [9, 8, 1],
+        ]
+    )
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    for _ in range(subdivisions):
+        edges = np.sort(np.stack([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]], 1), axis=-1)
+        unique, inverse = np.unique(edges.reshape(-1, 2), axis=0, return_inverse=True)
+        mid = v[unique].mean(axis=1)
+        mid /= np.linalg.norm(mid, axis=1, keepdims=True)
+        m = inverse.reshape(-1, 3) + len(v)  # midpoints of edges (01, 12, 20)
+        f = np.concatenate(
+            [
+                np.stack([f[:, 0], m[:, 0], m[:, 2]], 1),
+                np.stack([f[:, 1], m[:, 1], m[:, 0]], 1),
+                np.stack([f[:, 2], m[:, 2], m[:, 1]], 1),
+                m,
+            ]
+        )
+        v = np.concatenate([v, mid])
+    return _mesh(v * float(radius), f)
+
+
+def revolve(profile, segments: int = 24) -> Mesh:
+    """A surface of revolution about the y axis.
+
+    **Arguments:**
+
+    - `profile`: `(N, 2)` points `(radius, height)` from bottom to top. A point with
+      radius 0 becomes a single pole vertex (use one at each end for a closed solid).
+    - `segments`: number of steps around the axis (static).
+
+    **Returns:** a `Mesh`, faces counter-clockwise seen from outside when the profile
+    runs upwards.
+    """
+    segments = static_int(segments, "segments", minimum=3)
+    profile = np.asarray(profile, float)
+    if profile.ndim != 2 or profile.shape[1] != 2 or len(profile) < 2:
+        raise ValueError(f"`profile` must have shape (N >= 2, 2), got {profile.shape}")
+    if np.any(profile[:, 0] < 0):
+        raise ValueError("`profile` radii must be >= 0")
+    angle = 2 * np.pi * np.arange(segments) / segments
+    pole = profile[:, 0] == 0
+    # vertex index of (profile point i, segment j): poles have one vertex
+    counts = np.where(pole, 1, segments)
+    start = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    ring = np.stack(
+        [
+            profile[:, :1] * np.sin(angle),
+            np.broadcast_to(profile[:, 1:], (len(profile), segments)),
+            profile[:, :1] * np.cos(angle),
+        ],
+        -1,
+    )  # (N, segments, 3)
+    vertices = np.concatenate([ring[i, : counts[i]] for i in range(len(profile))])
+    j = np.arange(segments)
+    jn = (j + 1) % segments
+
+    def index(i, jj):
+        return start[i] + np.where(pole[i], 0, jj)
+
+    faces = []
+    for i in range(len(profile) - 1):  # static loop over profile segments, not over points
+        a, b = index(i, j), index(i, jn)
+        c, d = index(i + 1, j), index(i + 1, jn)
+        if not pole[i]:
+            faces.append(np.stack([a, b, c], 1))
+        if not pole[i + 1]:
+            faces.append(np.stack([b, d, c], 1))
+    return _mesh(vertices, np.concatenate(faces))
+
+
+def cylinder(radius: float = 1.0, height: float = 2.0, segments: int = 24) -> Mesh:
+    """A closed cylinder about the y axis, centred at the origin."""
+    h = _real(height, "height") / 2
+    r = _real(radius, "radius")
+    return revolve([[0, -h], [r, -h], [r, h], [0, h]], segments)
+
+
+def torus(
+    major_radius: float = 1.0,
+    minor_radius: float = 0.35,
+    major_segments: int = 32,
+    minor_segments: int = 16,
+) -> Mesh:
+    """A torus about the y axis: a tube of `minor_radius` around a circle of `major_radius`."""
+    major_radius = _real(major_radius, "major_radius")
+    minor_radius = _real(minor_radius, "minor_radius")
+    nu = static_int(major_segments, "major_segments", minimum=3)
+    nv = static_int(minor_segments, "minor_segments", minimum=3)
+    u = 2 * np.pi * np.arange(nu)[:, None] / nu
+    v = 2 * np.pi * np.arange(nv)[None, :] / nv
+    r = np.broadcast_to(major_radius + minor_radius * np.cos(v), (nu, nv))
+    vertices = np.stack(
+        [r * np.sin(u), np.broadcast_to(minor_radius * np.sin(v), r.shape), r * np.cos(u)], -1
+    ).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(nu), np.arange(nv), indexing="ij")
+    a = i * nv + j
+    b = ((i + 1) % nu) * nv + j
+    c = i * nv + (j + 1) % nv
+    d = ((i + 1) % nu) * nv + (j + 1) % nv
+    faces = np.concatenate([np.stack([a, b, c], -1), np.stack([b, d, c], -1)]).reshape(-1, 3)
+    return _mesh(vertices, faces)
+
+
+def pawn(segments: int = 32) -> Mesh:
+    """A chess pawn (about 2 units tall, base on y = 0), a surface of revolution.
+
+    Our own model: base, collar and a round head, free to redistribute with gfxlab.
+    """
+    body = [
+        (0.0, 0.0),
+        (0.80, 0.0),
+        (0.82, 0.06),
+        (0.80, 0.13),
+        (0.70, 0.18),
+        (0.66, 0.24),
+        (0.56, 0.30),
+        (0.44, 0.36),
+        (0.38, 0.46),
+        (0.33, 0.62),
+        (0.29, 0.82),
+        (0.26, 1.02),
+        (0.25, 1.12),
+        (0.44, 1.16),
+        (0.46, 1.21),
+        (0.42, 1.26),
+        (0.27, 1.30),
+    ]
+    # the head: a sphere of radius 0.34 centred at height 1.56, from its lower neck up
+    angles = np.linspace(-0.30 * np.pi, 0.5 * np.pi, 10)
+    head = [(0.34 * np.cos(a), 1.56 + 0.34 * np.sin(a)) for a in angles]
+    head[-1] = (0.0, head[-1][1])
+    return revolve(np.array(body + head), segments)
+
+
+#: Models shipped in `data/meshes/`: file name -> function making the mesh.
+SHIPPED_MODELS = {"pawn.obj": pawn}
+
+
+def shipped_model_path(name: str = "pawn.obj") -> pathlib.Path:
+    """Path of a shipped model file in `data/meshes/`."""
+    if name not in SHIPPED_MODELS:
+        raise ValueError(f"`name` must be one of {sorted(SHIPPED_MODELS)}, got {name!r}")
+    return DATA_DIR / name
+
+
+def write_shipped_models(directory: str | os.PathLike | None = None) -> list[pathlib.Path]:
+    """(Re)write every model of `SHIPPED_MODELS` as OBJ into `directory` (default `DATA_DIR`)."""
+    directory = pathlib.Path(directory) if directory is not None else DATA_DIR
+    directory.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name, make in SHIPPED_MODELS.items():
+        comment = f"{name}: made by gfxlab.mesh.{make.__name__}(); redistributable with gfxlab"
+        write_obj(directory / name, make(), comment=comment)
+        paths.append(directory / name)
+    return paths
+
+
+from ._losses import (  # noqa: E402 - the losses and OBJ I/O use Mesh defined above
+    chamfer_distance,
+    edge_length_loss,
+    laplacian_loss,
+    normal_consistency_loss,
+)
+from ._obj import obj_text, read_obj, write_obj  # noqa: E402

@@ -1,0 +1,67 @@
+"""Rendering triangle scenes: soft and hard differentiable rasterization, shading,
+textures, and the classic hidden-surface algorithms.
+
+- `render` (module `renderer`): a world-space `Mesh` and a `Camera` (batched views or
+  vertices too) to colour, silhouette, depth, normal maps and per-pixel barycentrics,
+  with the soft (SoftRas) or the hard (z-buffer, edge-antialiased) rasterizer;
+  `interpolate`, `antialias`, `shard_cameras`.
+- Shading (module `shading`): `shade` through any `gfxlab.brdf` model with
+  `PointLight`/`DirectionalLight`, `sample_texture` (bilinear, differentiable).
+- Soft rasterization building blocks (module `soft`): `soft_silhouette` of 2D
+  triangles, the flat-shaded `soft_rasterize`, `tile_capacity`.
+- Hidden-surface removal (module `hsr`): `zbuffer`, `painter`, `warnock`, `scanline`, `raycast`
+  on screen-space triangle scenes made by `screen_scene`.
+
+All distances are in pixels with the project's pixel convention (`gfxlab._pixels`: y up,
+pixel centres on integers); projection is the camera's (`Camera.to_pixels`).
+"""
+
+from .hsr import (
+    WARNOCK_CODES,
+    VisibilityResult,
+    painter,
+    quadtree_cells,
+    raycast,
+    scanline,
+    screen_scene,
+    warnock,
+    zbuffer,
+)
+from .renderer import Rendering, antialias, interpolate, render, shard_cameras
+from .shading import DirectionalLight, PointLight, sample_texture, shade
+from .soft import (
+    _color_core,
+    _dense_soft_rasterize,
+    _dense_soft_silhouette,
+    _project_mesh,
+    soft_rasterize,
+    soft_silhouette,
+    tile_capacity,
+)
+
+__all__ = [
+    "render",
+    "Rendering",
+    "interpolate",
+    "antialias",
+    "shard_cameras",
+    "shade",
+    "sample_texture",
+    "PointLight",
+    "DirectionalLight",
+    "soft_silhouette",
+    "soft_rasterize",
+    "tile_capacity",
+    "screen_scene",
+    "VisibilityResult",
+    "zbuffer",
+    "painter",
+    "warnock",
+    "scanline",
+    "raycast",
+    "quadtree_cells",
+    "WARNOCK_CODES",
+]
+
+# private helpers re-exported for the tests and the benchmark (dense references)
+_ = (_color_core, _dense_soft_rasterize, _dense_soft_silhouette, _project_mesh)

@@ -1,0 +1,555 @@
+"""Hidden-surface removal on screen-space triangle scenes.
+
+Scenes are `(F, 3, 3)` triangles (pixel x, pixel y, depth; smaller depth is nearer,
+depth affine across each triangle such as NDC z): `zbuffer`, `painter` (depth sort),
+`warnock` (area subdivision), `scanline` and `raycast`. A pixel is covered by a triangle when its
+centre lies inside or on the triangle; all four methods pick the nearest covering
+triangle (ties: the lower index) unless the scene has cyclic overlaps, where `painter`
+fails. `screen_scene` turns a mesh and a camera into such a scene.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+from .._checks import as_float, check_shape, common_float, static_shape
+from .._pixels import pixel_centers
+from ..mesh import Mesh, check_colors
+from ..viewing import Camera
+from ._project import check_mesh_camera, project_faces
+from ._tiles import cross2
+from .soft import _flat_colors
+
+__all__ = [
+    "screen_scene",
+    "VisibilityResult",
+    "zbuffer",
+    "painter",
+    "warnock",
+    "scanline",
+    "raycast",
+    "quadtree_cells",
+    "WARNOCK_CODES",
+]
+
+
+class VisibilityResult(eqx.Module):
+    """What the hidden-surface methods return.
+
+    **Fields:**
+
+    - `image`: `(H, W, C)` the rendered image.
+    - `depth`: `(H, W)` the depth buffer (`inf` where nothing is drawn), or `None` for
+      methods without one.
+    - `counters`: dict of integer scalars: `memory_bytes` (buffers the method keeps),
+      `depth_tests` (depth comparisons), `polygon_tests` (polygon-vs-polygon or
+      polygon-vs-area tests), and method-specific extras.
+    - `quadtree`: for `warnock`, one `(2^l, 2^l)` array of `WARNOCK_CODES` per level.
+    """
+
+    image: Float[Array, "H W C"]
+    depth: Float[Array, "H W"] | None
+    counters: dict
+    quadtree: tuple | None = None
+
+
+#: Decision codes of `warnock`'s quadtree cells.
+WARNOCK_CODES = {
+    0: "not visited",
+    1: "test 1: all polygons disjoint (background)",
+    2: "test 2: one intersecting or contained polygon (scan-converted)",
+    3: "test 3: one surrounding polygon",
+    4: "test 4: surrounding polygon in front of all others",
+    5: "subdivided",
+    6: "pixel: nearest surface",
+}
+
+
+def _prepare_scene(triangles, colors, shape, background):
+    height, width = static_shape(shape)
+    triangles, colors = common_float(triangles, colors, names=("triangles", "colors"))
+    check_shape(triangles, "triangles", (None, 3, 3))
+    colors = check_colors(colors, triangles.shape[0], per="triangle")
+    background = as_float(background, "background").astype(colors.dtype)
+    check_shape(background, "background", (colors.shape[1],))
+    if triangles.shape[0] == 0:  # an empty scene: one skipped placeholder keeps shapes valid
+        triangles = jnp.full((1, 3, 3), jnp.nan, triangles.dtype)
+        colors = jnp.zeros((1, colors.shape[1]), colors.dtype)
+    finite = jnp.all(jnp.isfinite(triangles), axis=(1, 2))
+    triangles = jnp.where(finite[:, None, None], triangles, 0.0)
+    xy = triangles[..., :2]
+    area2 = cross2(xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0])
+    valid = finite & (area2 != 0)
+    return (height, width), triangles, colors, background, valid
+
+
+def _edge_functions(points, triangles):
+    """`(..., F, 3)` oriented edge functions (>= 0 inside) and the plane depth `(..., F)`."""
+    xy = triangles[..., :2]
+    area2 = cross2(xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0])
+    start = xy
+    edge = jnp.roll(xy, -1, axis=-2) - start
+    rel = points[..., None, None, :] - start
+    fn = cross2(edge, rel)  # (..., F, 3)
+    safe = jnp.where(area2 != 0, area2, 1.0)
+    bary = jnp.roll(fn, -1, axis=-1) / safe[:, None]  # corner k: edge k + 1
+    depth = jnp.sum(bary * triangles[..., 2], -1)
+    return fn * jnp.sign(area2)[:, None], depth
+
+
+def _covers(points, triangles, valid):
+    fn, depth = _edge_functions(points, triangles)
+    return valid & jnp.all(fn >= 0, axis=-1), depth
+
+
+def _covers_own(points, triangles, valid):
+    """Coverage of each point `(..., 2)` by its own triangle `(..., 3, 3)`."""
+    xy = triangles[..., :2]
+    area2 = cross2(xy[..., 1, :] - xy[..., 0, :], xy[..., 2, :] - xy[..., 0, :])
+    fn = cross2(jnp.roll(xy, -1, axis=-2) - xy, points[..., None, :] - xy)
+    return valid & jnp.all(fn * jnp.sign(area2)[..., None] >= 0, axis=-1)
+
+
+def _nearest(points, triangles, valid):
+    """Index of the nearest covering triangle at `points (..., 2)` (-1: none) and its depth."""
+    cover, depth = _covers(points, triangles, valid)
+    depth = jnp.where(cover, depth, jnp.inf)
+    index = jnp.argmin(depth, axis=-1)  # first minimum: ties go to the lower index
+    hit = jnp.any(cover, axis=-1)
+    return jnp.where(hit, index, -1), jnp.min(depth, axis=-1), jnp.sum(cover, axis=-1)
+
+
+def _compose(owner, colors, background):
+    return jnp.where((owner >= 0)[..., None], colors[jnp.maximum(owner, 0)], background)
+
+
+def _int(x):
+    return jnp.asarray(x, dtype=jnp.result_type(int))
+
+
+@functools.partial(jax.jit, static_argnames=("shape",))
+def zbuffer(
+    triangles: Float[Array, "F 3 3"],
+    colors: Float[Array, "F C"],
+    shape: tuple[int, int],
+    *,
+    background=0.0,
+) -> VisibilityResult:
+    """Z-buffer (depth-buffer) visible-surface algorithm, one polygon at a time.
+
+    Frame buffer = background and depth buffer = inf; then for each triangle and each
+    pixel it covers, a depth test: if nearer than the stored depth, store its depth and
+    colour.
+
+    **Arguments:**
+
+    - `triangles`: `(F, 3, 3)` corners as (pixel x, pixel y, depth); smaller depth is
+      nearer. Triangles with non-finite coordinates or no area are skipped.
+    - `colors`: `(F, C)` one colour per triangle.
+    - `shape`: image shape `(H, W)`.
+    - `background`: background colour `(C,)` or a scalar.
+
+    **Returns:** a `VisibilityResult` with the image, the depth buffer and counters.
+    """
+    colors = as_float(colors, "colors")
+    if colors.ndim == 2:
+        background = jnp.broadcast_to(as_float(background, "background"), colors.shape[1:])
+    shape, triangles, colors, background, valid = _prepare_scene(
+        triangles, colors, shape, background
+    )
+    grid = pixel_centers(shape, triangles.dtype)
+
+    def draw(carry, face):
+        frame, depth, tests = carry
+        tri, color, ok = face
+        cover, z = _covers(grid, tri[None], ok[None])
+        cover, z = cover[..., 0], z[..., 0]
+        nearer = cover & (z < depth)
+        frame = jnp.where(nearer[..., None], color, frame)
+        depth = jnp.where(nearer, z, depth)
+        return (frame, depth, tests + jnp.sum(cover)), None
+
+    frame = jnp.broadcast_to(background, shape + background.shape)
+    depth = jnp.full(shape, jnp.inf, triangles.dtype)
+    (frame, depth, tests), _ = jax.lax.scan(
+        draw, (frame, depth, _int(0)), (triangles, colors, valid)
+    )
+    memory = frame.size * frame.dtype.itemsize + depth.size * depth.dtype.itemsize
+    counters = {"memory_bytes": _int(memory), "depth_tests": tests, "polygon_tests": _int(0)}
+    return VisibilityResult(frame, depth, counters)
+
+
+def _with_background(colors, background):
+    colors = as_float(colors, "colors")
+    if colors.ndim == 2:
+        return jnp.broadcast_to(as_float(background, "background"), colors.shape[1:])
+    return background
+
+
+def _obscures(triangles, valid):
+    """`(F, F)`: triangle i is nearer than triangle j somewhere where both are drawn.
+
+    The depth difference is affine over the overlap of the two projections, so its
+    minimum is at a corner of the overlap: a corner of one triangle inside the other or
+    a crossing of two edges. Also returns how many pairs needed this exact test.
+    """
+    xy = triangles[..., :2]
+    zmin, zmax = triangles[..., 2].min(-1), triangles[..., 2].max(-1)
+    lo, hi = xy.min(1), xy.max(1)
+    boxes = jnp.all((lo[:, None] <= hi[None]) & (lo[None] <= hi[:, None]), -1)
+    candidates = valid[:, None] & valid[None] & boxes & ~jnp.eye(len(xy), dtype=bool)
+    # quick test: i entirely behind j in depth cannot obscure it
+    candidates = candidates & ~(zmin[:, None] >= zmax[None])
+    scale = jnp.maximum(jnp.max(jnp.abs(xy)), 1.0)
+    tol = 1e-9 * scale * scale
+
+    def pair(ti, tj):
+        pi, pj = ti[:, :2], tj[:, :2]
+        # corners of i and j, and the 9 edge crossings
+        ri = jnp.roll(pi, -1, 0) - pi
+        rj = jnp.roll(pj, -1, 0) - pj
+        denom = cross2(ri[:, None], rj[None])
+        qp = pj[None] - pi[:, None]
+        ok = jnp.abs(denom) > 0
+        safe = jnp.where(ok, denom, 1.0)
+        t = cross2(qp, rj[None]) / safe
+        u = cross2(qp, ri[:, None]) / safe
+        crossing = ok & (t >= 0) & (t <= 1) & (u >= 0) & (u <= 1)
+        cross_pts = (pi[:, None] + t[..., None] * ri[:, None]).reshape(9, 2)
+        points = jnp.concatenate([pi, pj, cross_pts])
+        fi, di = _edge_functions(points, ti[None])
+        fj, dj = _edge_functions(points, tj[None])
+        # corners of i inside j, corners of j inside i, and real edge crossings
+        inside = jnp.concatenate(
+            [jnp.all(fj[:3, 0] >= -tol, -1), jnp.all(fi[3:6, 0] >= -tol, -1), crossing.reshape(9)]
+        )
+        diff = di[:, 0] - dj[:, 0]
+        depth_tol = 1e-9 * jnp.maximum(jnp.max(jnp.abs(ti[:, 2])), jnp.max(jnp.abs(tj[:, 2])))
+        return jnp.any(inside & (diff < -depth_tol - 1e-12))
+
+    nearer = jax.vmap(lambda ti: jax.vmap(lambda tj: pair(ti, tj))(triangles))(triangles)
+    return candidates & nearer, jnp.sum(candidates)
+
+
+@functools.partial(jax.jit, static_argnames=("shape",))
+def painter(
+    triangles: Float[Array, "F 3 3"],
+    colors: Float[Array, "F C"],
+    shape: tuple[int, int],
+    *,
+    background=0.0,
+) -> VisibilityResult:
+    """Painter's algorithm (depth sort): paint far to near, over-painting.
+
+    Triangles are sorted by their farthest depth; then every pair whose projections
+    and depth ranges overlap is tested, and a triangle that is nearer than another
+    anywhere in their common area is painted after it (a topological order). With
+    cyclic overlaps no such order exists (`counters["cycle"]` is 1): the plain depth
+    sort is painted and the picture is wrong where the cycle overlaps, which is the
+    textbook failure (fixing it needs polygon splitting).
+
+    Arguments and result as for `zbuffer`; there is no depth buffer (`depth` is None).
+    """
+    background = _with_background(colors, background)
+    shape, triangles, colors, background, valid = _prepare_scene(
+        triangles, colors, shape, background
+    )
+    count = triangles.shape[0]
+    obscures, exact_tests = _obscures(triangles, valid)
+
+    # level[i] = length of the longest chain of triangles that must be painted before i
+    def body(state):
+        level, _, steps = state
+        new = jnp.max(jnp.where(obscures, level[None, :] + 1, 0), axis=1, initial=0)
+        return new, jnp.any(new != level), steps + 1
+
+    level, changing, _ = jax.lax.while_loop(
+        lambda s: s[1] & (s[2] <= count),
+        body,
+        (jnp.zeros(count, jnp.int32), jnp.array(True), jnp.int32(0)),
+    )
+    cycle = changing
+    far_first = -triangles[..., 2].max(-1)
+    level = jnp.where(cycle, 0, level)
+    order = jnp.lexsort((far_first, level))
+
+    grid = pixel_centers(shape, triangles.dtype)
+
+    def paint(carry, index):
+        frame, writes = carry
+        cover, _ = _covers(grid, triangles[index][None], valid[index][None])
+        cover = cover[..., 0]
+        return (jnp.where(cover[..., None], colors[index], frame), writes + jnp.sum(cover)), None
+
+    frame = jnp.broadcast_to(background, shape + background.shape)
+    (frame, writes), _ = jax.lax.scan(paint, (frame, _int(0)), order)
+    pairs = count * (count - 1) // 2
+    counters = {
+        "memory_bytes": _int(frame.size * frame.dtype.itemsize + count * 8),
+        "depth_tests": _int(0),
+        "polygon_tests": _int(pairs) + exact_tests,
+        "pixel_writes": writes,
+        "cycle": cycle.astype(_int(0).dtype),
+    }
+    return VisibilityResult(frame, None, counters)
+
+
+def _classify(rects, triangles, valid):
+    """Warnock's relation of every triangle to every rectangle of pixel centres.
+
+    `rects (..., 4)` as (xmin, ymin, xmax, ymax) -> `(disjoint, surrounding)`, each
+    `(..., F)`; the rest are intersecting or contained.
+    """
+    corners = jnp.stack(
+        [rects[..., [0, 1]], rects[..., [2, 1]], rects[..., [2, 3]], rects[..., [0, 3]]], -2
+    )  # (..., 4, 2)
+    fn, _ = _edge_functions(corners, triangles)  # (..., 4, F, 3)
+    surrounding = valid & jnp.all(fn >= 0, axis=(-3, -1))
+    xy = triangles[..., :2]
+    lo, hi = xy.min(1), xy.max(1)
+    apart = (
+        (lo[:, 0] > rects[..., 2:3])
+        | (hi[:, 0] < rects[..., 0:1])
+        | (lo[:, 1] > rects[..., 3:4])
+        | (hi[:, 1] < rects[..., 1:2])
+    )
+    separated = jnp.any(jnp.all(fn < 0, axis=-3), axis=-1)  # an edge with all corners out
+    return ~valid | apart | separated, surrounding, corners
+
+
+@functools.partial(jax.jit, static_argnames=("shape",))
+def warnock(
+    triangles: Float[Array, "F 3 3"],
+    colors: Float[Array, "F C"],
+    shape: tuple[int, int],
+    *,
+    background=0.0,
+) -> VisibilityResult:
+    """Warnock's area-subdivision algorithm, breadth first over the quadtree.
+
+    The image is padded to a `2^L x 2^L` square. At each level every undecided cell
+    (a rectangle of pixel centres) is classified against every triangle as disjoint,
+    surrounding, or intersecting/contained, and decided by the seed's tests: (1) all
+    disjoint: background; (2) one intersecting or contained polygon: background, then
+    that polygon scan-converted; (3) one surrounding polygon and nothing else: its
+    colour; (4) a surrounding polygon nearer than all others at the cell's four
+    corners: its colour. Otherwise the cell is split into four. At pixel size the
+    nearest surface is used.
+
+    Arguments as for `zbuffer`. The result has no depth buffer; `quadtree` holds the
+    decision code (`WARNOCK_CODES`) of every cell at every level, for overlays
+    (`quadtree_cells`).
+    """
+    background = _with_background(colors, background)
+    (height, width), triangles, colors, background, valid = _prepare_scene(
+        triangles, colors, shape, background
+    )
+    levels = max(0, math.ceil(math.log2(max(height, width))))
+    size = 2**levels
+    grid = pixel_centers((size, size), triangles.dtype).at[..., 1].add(height - size)
+    owner = jnp.full((size, size), -1)
+    decided = jnp.zeros((size, size), bool)
+    codes = []
+    polygon_tests = _int(0)
+    depth_tests = _int(0)
+    max_active = _int(0)
+    for level in range(levels + 1):
+        n = 2**level
+        s = size // n
+        block = grid.reshape(n, s, n, s, 2)
+        rects = jnp.concatenate([block[:, -1, :, 0], block[:, 0, :, -1]], -1)  # (n, n, 4)
+        active = ~decided[::s, ::s]
+        disjoint, surrounding, corners = _classify(rects, triangles, valid)
+        relevant = ~disjoint
+        n_rel = jnp.sum(relevant, -1)
+        n_sur = jnp.sum(surrounding, -1)
+        first_rel = jnp.argmax(relevant, -1)
+        _, corner_depth = _edge_functions(corners, triangles)  # (n, n, 4, F)
+        corner_depth = jnp.where(relevant[..., None, :], corner_depth, jnp.inf)
+        # test 4: a surrounding triangle strictly nearer than every other relevant one at
+        # each corner, i.e. the only one at the corner's minimum depth
+        nearest = jnp.min(corner_depth, axis=-1, keepdims=True)  # (n, n, 4, 1)
+        unique = jnp.sum(corner_depth == nearest, axis=-1, keepdims=True) == 1
+        front = surrounding & jnp.all((corner_depth == nearest) & unique, axis=-2)
+        test1 = n_rel == 0
+        test2 = (n_rel == 1) & (n_sur == 0)
+        test3 = (n_rel == 1) & (n_sur == 1)
+        test4 = ~test1 & ~test2 & ~test3 & jnp.any(front, -1)
+        bottom = level == levels
+        code = jnp.select([test1, test2, test3, test4], [1, 2, 3, 4], 6 if bottom else 5)
+        code = jnp.where(active, code, 0)
+        cell_owner = jnp.select([test3, test4], [first_rel, jnp.argmax(front, -1)], -1)
+        # test 2: scan-convert the single polygon inside its cell
+        px_first = jnp.repeat(jnp.repeat(first_rel, s, 0), s, 1)
+        covered_first = _covers_own(grid, triangles[px_first], valid[px_first])
+        px_code = jnp.repeat(jnp.repeat(code, s, 0), s, 1)
+        px_owner = jnp.repeat(jnp.repeat(cell_owner, s, 0), s, 1)
+        px_owner = jnp.where(px_code == 2, jnp.where(covered_first, px_first, -1), px_owner)
+        if bottom:
+            nearest, _, covering = _nearest(grid, triangles, valid)
+            px_owner = jnp.where(px_code == 6, nearest, px_owner)
+            depth_tests = depth_tests + jnp.sum(jnp.where(code == 6, covering, 0))
+        newly = (px_code >= 1) & (px_code != 5)
+        owner = jnp.where(newly, px_owner, owner)
+        decided = decided | newly
+        polygon_tests = polygon_tests + jnp.sum(active) * len(valid)
+        reached4 = active & ~test1 & ~test2 & ~test3 & (n_sur > 0)
+        depth_tests = depth_tests + 4 * jnp.sum(jnp.where(reached4, n_rel, 0))
+        max_active = jnp.maximum(max_active, jnp.sum(active))
+        codes.append(code.astype(jnp.int8))
+    owner = owner[:height, :width]
+    image = _compose(owner, colors, background)
+    memory = image.size * image.dtype.itemsize + max_active * 4 * 4
+    counters = {
+        "memory_bytes": _int(memory),
+        "depth_tests": depth_tests,
+        "polygon_tests": polygon_tests,
+        "cells": _int(sum(jnp.sum(c > 0) for c in codes)),
+    }
+    return VisibilityResult(image, None, counters, tuple(codes))
+
+
+def quadtree_cells(quadtree, shape: tuple[int, int]) -> np.ndarray:
+    """Warnock's decided cells as rows `(xmin, ymin, xmax, ymax, level, code)` (NumPy).
+
+    Coordinates are pixel edges (a cell of pixel centres 0..3 spans -0.5..3.5), for
+    drawing rectangles over `plt.imshow(image, extent=image_extent(shape))`; cells
+    entirely outside the image are dropped.
+    """
+    height, width = static_shape(shape)
+    if not isinstance(quadtree, tuple | list) or not quadtree:
+        raise TypeError(
+            "`quadtree` must be the tuple of per-level code arrays of a `warnock` result "
+            f"(`result.quadtree`), got {type(quadtree).__name__}"
+        )
+    size = 2 ** (len(quadtree) - 1)
+    rows = []
+    for level, code in enumerate(quadtree):
+        code = np.asarray(code)
+        if code.shape != (2**level, 2**level) or not np.issubdtype(code.dtype, np.integer):
+            raise ValueError(
+                f"`quadtree[{level}]` must be a ({2**level}, {2**level}) integer array of "
+                f"WARNOCK_CODES, got shape {code.shape} and dtype {code.dtype}"
+            )
+        s = size // code.shape[0]
+        r, c = np.nonzero(code > 0)
+        if len(r) == 0:
+            continue
+        x0, x1 = c * s - 0.5, np.minimum(c * s + s, width) - 0.5
+        top = r * s  # array row of the cell's first pixel row
+        y1 = height - 0.5 - top
+        y0 = np.maximum(height - 0.5 - (top + s), -0.5)
+        keep = (c * s < width) & (top < height)
+        rows.append(np.stack([x0, y0, x1, y1, np.full_like(x0, level), code[r, c]], -1)[keep])
+    return np.concatenate(rows) if rows else np.zeros((0, 6))
+
+
+@functools.partial(jax.jit, static_argnames=("shape",))
+def raycast(
+    triangles: Float[Array, "F 3 3"],
+    colors: Float[Array, "F C"],
+    shape: tuple[int, int],
+    *,
+    background=0.0,
+) -> VisibilityResult:
+    """Ray casting: through every pixel centre a ray is tested against every polygon and
+    the nearest hit is kept.
+
+    Cost `pixels x polygons` intersection tests without a spatial data structure (the
+    seed's `O(#pixels, #objects)`); memory is the frame buffer plus the object database
+    (the triangles). Arguments as for `zbuffer`; no depth buffer (`depth` is None).
+    Counters: `polygon_tests` (ray-polygon intersection tests) and `depth_tests`
+    (comparisons of hits along a ray).
+    """
+    background = _with_background(colors, background)
+    shape, triangles, colors, background, valid = _prepare_scene(
+        triangles, colors, shape, background
+    )
+    owner, _, hits = _nearest(pixel_centers(shape, triangles.dtype), triangles, valid)
+    image = _compose(owner, colors, background)
+    database = triangles.size * triangles.dtype.itemsize + colors.size * colors.dtype.itemsize
+    counters = {
+        "memory_bytes": _int(image.size * image.dtype.itemsize + database),
+        "depth_tests": jnp.sum(jnp.maximum(hits - 1, 0)),
+        "polygon_tests": _int(shape[0] * shape[1] * triangles.shape[0]),
+    }
+    return VisibilityResult(image, None, counters)
+
+
+@functools.partial(jax.jit, static_argnames=("shape",))
+def scanline(
+    triangles: Float[Array, "F 3 3"],
+    colors: Float[Array, "F C"],
+    shape: tuple[int, int],
+    *,
+    background=0.0,
+) -> VisibilityResult:
+    """Scan-line visible-surface algorithm, one image row at a time.
+
+    For each scan line the active triangles are those it crosses; each gives a span
+    `[x_left, x_right]` from the crossings of its edges. Where only one span covers a
+    pixel it is drawn without a depth test; where several overlap, the depths along
+    the line are compared. Only one row of depths is kept.
+
+    Arguments as for `zbuffer`; no full depth buffer (`depth` is None).
+    """
+    background = _with_background(colors, background)
+    (height, width), triangles, colors, background, valid = _prepare_scene(
+        triangles, colors, shape, background
+    )
+    xs = jnp.arange(width, dtype=triangles.dtype)
+    start = triangles[..., :2]
+    end = jnp.roll(start, -1, axis=-2)
+    z_plane = triangles  # plane depth from the edge functions
+
+    def row(carry, r):
+        tests, spans = carry
+        y = (height - 1 - r).astype(triangles.dtype)
+        dy = end[..., 1] - start[..., 1]
+        crosses = ((start[..., 1] - y) * (end[..., 1] - y) <= 0) & (dy != 0)
+        t = jnp.where(crosses, (y - start[..., 1]) / jnp.where(dy != 0, dy, 1.0), 0.0)
+        x = start[..., 0] + t * (end[..., 0] - start[..., 0])
+        left = jnp.min(jnp.where(crosses, x, jnp.inf), -1)
+        right = jnp.max(jnp.where(crosses, x, -jnp.inf), -1)
+        active = valid & jnp.any(crosses, -1)
+        in_span = active & (xs[:, None] >= left) & (xs[:, None] <= right)  # (W, F)
+        points = jnp.stack([xs, jnp.full_like(xs, y)], -1)
+        _, depth = _edge_functions(points, z_plane)
+        depth = jnp.where(in_span, depth, jnp.inf)
+        nearest = jnp.where(jnp.any(in_span, -1), jnp.argmin(depth, -1), -1)
+        overlapping = jnp.sum(in_span, -1)
+        tests = tests + jnp.sum(jnp.where(overlapping > 1, overlapping, 0))
+        return (tests, spans + jnp.sum(active)), nearest
+
+    (tests, spans), owner = jax.lax.scan(row, (_int(0), _int(0)), jnp.arange(height))
+    image = _compose(owner, colors, background)
+    itemsize = triangles.dtype.itemsize
+    edge_table = triangles.shape[0] * 3 * 4 * itemsize
+    memory = image.size * image.dtype.itemsize + width * itemsize + edge_table
+    counters = {"memory_bytes": _int(memory), "depth_tests": tests, "polygon_tests": spans}
+    return VisibilityResult(image, None, counters)
+
+
+def screen_scene(
+    mesh: Mesh, camera: Camera, shape: tuple[int, int], *, light=None, ambient: float = 0.3
+) -> tuple[Float[Array, "F 3 3"], Float[Array, "F C"]]:
+    """A mesh seen by a camera as a screen-space triangle scene for the hard methods.
+
+    **Returns:** `(triangles, colors)`: `(F, 3, 3)` corners as (pixel x, pixel y, NDC z)
+    (NDC z is affine across each projected triangle, as the depth tests need; faces
+    crossing the near plane get NaN and are skipped), and `(F, C)` face colours (the
+    mean of the vertex colours, white if none, shaded as in `soft_rasterize`).
+    """
+    height, width = static_shape(shape)
+    check_mesh_camera(mesh, camera)
+    tri, _, ndc_z, valid = project_faces(mesh.vertices, mesh.faces, camera, (height, width))
+    scene = jnp.concatenate([tri, ndc_z[..., None]], -1)
+    scene = jnp.where(valid[:, None, None], scene, jnp.nan)
+    return scene, _flat_colors(mesh, light, ambient).mean(axis=1)

@@ -1,0 +1,522 @@
+"""`render`: a world-space mesh and a camera to colour, silhouette, depth, normals and
+per-pixel barycentrics, with a soft (SoftRas) or a hard (z-buffer) rasterizer.
+
+Both rasterizers work on the same tiles and compute, for every pixel and every face
+binned into its tile, the screen-space barycentrics and from them the
+**perspective-correct** barycentrics `b_k = (beta_k / w_k) / sum_j (beta_j / w_j)` (`w`
+the eye depth of the corners). Every per-corner attribute (colour, normal, world
+position, texture coordinates, user attributes) is interpolated with them.
+
+- `mode="hard"`: the nearest covering face wins (a z-buffer on eye depth); its
+  attributes are exact, and their gradients flow to the vertices inside faces. At
+  silhouette edges (face / background, or a face over a non-adjacent one) the
+  nvdiffrast-style **antialiasing** blends each pair of neighbouring pixels by where the
+  edge crosses the segment between their centres, which gives the positions of the
+  edges gradients.
+- `mode="soft"`: SoftRas' depth-aware softmax (`sigma`, `gamma`, see `soft`) weights the
+  faces; attributes are aggregated with the weights, shaded once per pixel (deferred
+  shading) and blended with the background by its weight. Unlit, this is exactly
+  SoftRas' colour. As `sigma, gamma -> 0` it becomes the hard image.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import NamedTuple
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float, Int
+
+from .._checks import as_float, check_finite, check_shape, static_shape, value_error_if
+from .._pixels import pixel_centers
+from ..mesh import Mesh, check_faces, vertex_normals
+from ..viewing import Camera
+from ._project import check_mesh_camera, project_faces
+from ._tiles import (
+    any_traced,
+    check_capacity,
+    check_options,
+    logit_limit,
+    pixel_face_terms,
+    resolve_capacity,
+    tiled,
+)
+from .shading import _check_lights, sample_texture, shade
+
+__all__ = ["render", "Rendering", "interpolate", "antialias", "shard_cameras"]
+
+
+class Rendering(eqx.Module):
+    """What `render` returns (a leading batch axis `B` when cameras/vertices are batched).
+
+    **Fields:**
+
+    - `color`: `(H, W, C)` shaded colour, background blended in.
+    - `alpha`: `(H, W)` silhouette (soft: SoftRas' `1 - prod(1 - D)`; hard: coverage,
+      antialiased at silhouette edges).
+    - `depth`: `(H, W)` eye depth (soft: softmax-weighted, background = far plane;
+      hard: of the visible face, far plane where empty).
+    - `normal`: `(H, W, 3)` interpolated world-space unit normal (zero where empty).
+    - `position`: `(H, W, 3)` interpolated world position.
+    - `face_index`: `(H, W)` index of the nearest covering face (-1: none).
+    - `barycentrics`: `(H, W, 3)` its perspective-correct barycentric coordinates.
+    - `attributes`: `(H, W, A)` the interpolated user `attributes`, or `None`.
+    """
+
+    color: Float[Array, "H W C"]
+    alpha: Float[Array, "H W"]
+    depth: Float[Array, "H W"]
+    normal: Float[Array, "H W 3"]
+    position: Float[Array, "H W 3"]
+    face_index: Int[Array, "H W"]
+    barycentrics: Float[Array, "H W 3"]
+    attributes: Float[Array, "H W A"] | None
+
+
+def _fragments(points, sub, slot_mask, ids, params, *, soft, eps):
+    """Per-pixel aggregated attributes, coverage, depth, face and barycentrics."""
+    tri, inv_w, attrs = sub  # (K, 3, 2), (K, 3), (K, 3, A)
+    sigma, gamma, near, far, eps_bg = params
+    d2, inside, bary = pixel_face_terms(points, tri)
+    cover = slot_mask[None] & inside
+    persp = bary * inv_w[None]
+    total = jnp.sum(persp, -1)
+    total = jnp.where(total > 0, total, 1.0)
+    persp = persp / total[..., None]
+    depth = 1.0 / total  # (P, K) eye depth
+    nearest = jnp.argmin(jnp.where(cover, depth, jnp.inf), -1)
+    hit = jnp.any(cover, -1)
+    b_near = jnp.where(
+        hit[:, None], jnp.take_along_axis(persp, nearest[:, None, None], 1)[:, 0], 0.0
+    )
+    face = jnp.where(hit, ids[nearest], -1).astype(tri.dtype)
+    if not soft:
+        values = jnp.einsum("pv,pva->pa", b_near, attrs[nearest])  # zero where empty
+        weight = hit.astype(tri.dtype)
+        alpha = weight
+        out_depth = jnp.where(hit, jnp.take_along_axis(depth, nearest[:, None], 1)[:, 0], far)
+    else:
+        keep = slot_mask[None] & (inside | (d2 <= sigma * logit_limit(eps)))
+        x = jnp.where(inside, d2, -d2) / sigma
+        alpha = -jnp.expm1(jnp.sum(jnp.where(keep, jax.nn.log_sigmoid(-x), 0.0), -1))
+        z = (far - depth) / (far - near)
+        logits = jnp.where(keep, jax.nn.log_sigmoid(x) + z / gamma, -jnp.inf)
+        logits = jnp.concatenate([logits, jnp.broadcast_to(eps_bg / gamma, (len(points), 1))], 1)
+        w = jax.nn.softmax(logits, -1)
+        w_faces = w[:, :-1]
+        weight = 1.0 - w[:, -1]
+        summed = jnp.einsum("pk,pkv,kva->pa", w_faces, persp, attrs)
+        some = weight > 1e-30
+        values = jnp.where(some[:, None], summed / jnp.where(some, weight, 1.0)[:, None], 0.0)
+        out_depth = jnp.sum(w_faces * jnp.where(keep, depth, 0.0), -1) + w[:, -1] * far
+    extra = jnp.stack([weight, alpha, out_depth, face], -1)
+    return jnp.concatenate([values, extra, b_near], -1)
+
+
+def interpolate(
+    attributes: Float[Array, "V A"],
+    faces: Int[Array, "F 3"],
+    face_index: Int[Array, "*batch"],
+    barycentrics: Float[Array, "*batch 3"],
+) -> Float[Array, "*batch A"]:
+    """Interpolate per-vertex `attributes` at pixels given their face and barycentrics.
+
+    Pixels with `face_index = -1` get zeros. With the perspective-correct
+    `Rendering.barycentrics` this is perspective-correct interpolation.
+    """
+    attributes = as_float(attributes, "attributes")
+    check_shape(attributes, "attributes", (None, None))
+    faces = check_faces(faces, attributes.shape[0])
+    face_index = jnp.asarray(face_index)
+    barycentrics = as_float(barycentrics, "barycentrics").astype(attributes.dtype)
+    check_shape(barycentrics, "barycentrics", tuple(face_index.shape) + (3,))
+    corners = attributes[faces[jnp.maximum(face_index, 0)]]  # (..., 3, A)
+    values = jnp.einsum("...v,...va->...a", barycentrics, corners)
+    return jnp.where((face_index >= 0)[..., None], values, 0.0)
+
+
+def _edge_values(tri, point):
+    """Oriented edge functions (>= 0 inside) of triangles `(..., 3, 2)` at `(..., 2)`."""
+    a, b = tri, jnp.roll(tri, -1, axis=-2)
+    e = b - a
+    r = point[..., None, :] - a
+    fn = e[..., 0] * r[..., 1] - e[..., 1] * r[..., 0]
+    area = (tri[..., 1, 0] - tri[..., 0, 0]) * (tri[..., 2, 1] - tri[..., 0, 1]) - (
+        tri[..., 1, 1] - tri[..., 0, 1]
+    ) * (tri[..., 2, 0] - tri[..., 0, 0])
+    return fn * jnp.where(area < 0, -1.0, 1.0)[..., None]
+
+
+def _pair_deltas(img_p, img_q, f_p, f_q, d_p, d_q, pt_p, pt_q, tri, faces):
+    """nvdiffrast-style blend of neighbour pixels `p`, `q` across a silhouette edge."""
+    a_is_p = (f_q < 0) | ((f_p >= 0) & (d_p <= d_q))
+    fa = jnp.where(a_is_p, f_p, f_q)
+    fo = jnp.where(a_is_p, f_q, f_p)
+    pa = jnp.where(a_is_p[..., None], pt_p, pt_q)
+    po = jnp.where(a_is_p[..., None], pt_q, pt_p)
+    t_a = tri[jnp.maximum(fa, 0)]  # (..., 3, 2)
+    e_a, e_o = _edge_values(t_a, pa), _edge_values(t_a, po)
+    exits = (e_o < 0) & (e_a >= 0)
+    denom = jnp.where(exits, e_a - e_o, 1.0)
+    t = jnp.where(exits, e_a / denom, 2.0)  # where the edge crosses pa -> po
+    k = jnp.argmin(jax.lax.stop_gradient(t), -1)
+    t = jnp.take_along_axis(t, k[..., None], -1)[..., 0]
+    corners_a = faces[jnp.maximum(fa, 0)]
+    i = jnp.take_along_axis(corners_a, k[..., None], -1)[..., 0]
+    j = jnp.take_along_axis(corners_a, ((k + 1) % 3)[..., None], -1)[..., 0]
+    corners_o = faces[jnp.maximum(fo, 0)]
+    shared = (
+        (fo >= 0) & jnp.any(corners_o == i[..., None], -1) & jnp.any(corners_o == j[..., None], -1)
+    )
+    active = (f_p != f_q) & (fa >= 0) & jnp.any(exits, -1) & ~shared
+    c_a = jnp.where(a_is_p[..., None], img_p, img_q)
+    c_o = jnp.where(a_is_p[..., None], img_q, img_p)
+    into_o = jnp.where(active & (t > 0.5), t - 0.5, 0.0)[..., None] * (c_a - c_o)
+    into_a = jnp.where(active & (t < 0.5), 0.5 - t, 0.0)[..., None] * (c_o - c_a)
+    delta_p = jnp.where(a_is_p[..., None], into_a, into_o)
+    delta_q = jnp.where(a_is_p[..., None], into_o, into_a)
+    return delta_p, delta_q
+
+
+def antialias(
+    image: Float[Array, "H W C"],
+    face_index: Int[Array, "H W"],
+    depth: Float[Array, "H W"],
+    triangles_2d: Float[Array, "F 3 2"],
+    faces: Int[Array, "F 3"],
+) -> Float[Array, "H W C"]:
+    """Analytic antialiasing of a hard rendering at silhouette edges (nvdiffrast style).
+
+    For every pair of horizontally or vertically neighbouring pixels that show different
+    faces (or a face and the background), the front face's edge that the segment
+    between the two pixel centres crosses is found; unless that edge is shared with the
+    other face (an inner edge of a surface), the pixel on the far side of the midpoint
+    is blended towards the other by the distance of the crossing from the midpoint.
+    The result is differentiable in the edge positions `triangles_2d` (pixels, y up).
+    """
+    height, width = face_index.shape
+    points = pixel_centers((height, width), triangles_2d.dtype)
+    out = image
+    for axis in (0, 1):  # vertical pairs, then horizontal pairs
+        lo = [slice(None), slice(None)]
+        hi = [slice(None), slice(None)]
+        lo[axis], hi[axis] = slice(None, -1), slice(1, None)
+        lo, hi = tuple(lo), tuple(hi)
+        dp, dq = _pair_deltas(
+            image[lo],
+            image[hi],
+            face_index[lo],
+            face_index[hi],
+            depth[lo],
+            depth[hi],
+            points[lo],
+            points[hi],
+            triangles_2d,
+            faces,
+        )
+        pad_p = [(0, 0)] * 3
+        pad_q = [(0, 0)] * 3
+        pad_p[axis], pad_q[axis] = (0, 1), (1, 0)
+        out = out + jnp.pad(dp, pad_p) + jnp.pad(dq, pad_q)
+    return out
+
+
+class _Config(NamedTuple):
+    shape: tuple[int, int]
+    soft: bool
+    eps: float
+    tile_size: int
+    capacity: int
+    tiles_per_step: int
+    antialias: bool
+    cull_backfaces: bool
+    batched_vertices: bool
+    batched_camera: bool
+
+
+def _corner_attributes(mesh, vertices, attributes):
+    """Per-corner attributes `(F, 3, A)`: albedo | normal | position | uv | user."""
+    faces = mesh.faces
+    albedo = (
+        mesh.colors[faces]
+        if mesh.colors is not None
+        else jnp.ones(faces.shape + (3,), vertices.dtype)
+    )
+    if mesh.normals is not None:
+        normals = mesh.normals.astype(vertices.dtype)[mesh.normal_faces]
+    else:
+        normals = vertex_normals(vertices, faces)[faces]
+    parts = [albedo, normals, vertices[faces]]
+    if mesh.texture is not None:
+        parts.append(mesh.uvs.astype(vertices.dtype)[mesh.uv_faces])
+    if attributes is not None:
+        parts.append(attributes.astype(vertices.dtype)[faces])
+    return jnp.concatenate(parts, -1), albedo.shape[-1]
+
+
+def _render_view(mesh, vertices, camera, extras, config: _Config):
+    attributes, lights, brdf, ambient, background, (sigma, gamma, eps_bg) = extras
+    dtype = vertices.dtype
+    params = (sigma, gamma, camera.near.astype(dtype), camera.far.astype(dtype), eps_bg)
+    tri, inv_w, _, valid = project_faces(
+        vertices, mesh.faces, camera, config.shape, cull_backfaces=config.cull_backfaces
+    )
+    attrs, channels = _corner_attributes(mesh, vertices, attributes)
+    margin = jnp.sqrt(sigma * logit_limit(config.eps)) if config.soft else jnp.zeros((), tri.dtype)
+    kernel = functools.partial(_fragments, params=params, soft=config.soft, eps=config.eps)
+    out, max_count = tiled(
+        lambda pts, sub, mask, ids: kernel(pts, sub, mask, ids),
+        tri,
+        valid,
+        (tri, inv_w, attrs),
+        config.shape,
+        margin=margin,
+        tile_size=config.tile_size,
+        capacity=config.capacity,
+        tiles_per_step=config.tiles_per_step,
+    )
+    size = attrs.shape[-1]
+    values, (weight, alpha, depth, face) = out[..., :size], [out[..., size + k] for k in range(4)]
+    bary = out[..., size + 4 :]
+    face = jax.lax.stop_gradient(face).astype(jnp.int32)
+    albedo = values[..., :channels]
+    normal = values[..., channels : channels + 3]
+    position = values[..., channels + 3 : channels + 6]
+    rest = channels + 6
+    if mesh.texture is not None:
+        albedo = sample_texture(mesh.texture.astype(tri.dtype), values[..., rest : rest + 2])
+        albedo = albedo * values[..., :channels] if mesh.colors is not None else albedo
+        rest += 2
+    color = albedo
+    if lights is not None:
+        color = shade(
+            albedo, normal, position, camera.eye, lights=lights, brdf=brdf, ambient=ambient
+        )
+    color = weight[..., None] * color + (1.0 - weight[..., None]) * background
+    if not config.soft and config.antialias:
+        both = antialias(
+            jnp.concatenate([color, alpha[..., None]], -1), face, depth, tri, mesh.faces
+        )
+        color, alpha = both[..., :-1], both[..., -1]
+    length = jnp.sqrt(jnp.sum(normal * normal, -1, keepdims=True))
+    normal = jnp.where(length > 0, normal / jnp.where(length > 0, length, 1.0), 0.0)
+    user = values[..., rest:] if attributes is not None else None
+    return Rendering(color, alpha, depth, normal, position, face, bary, user), max_count
+
+
+@functools.partial(jax.jit, static_argnames=("config",))
+def _render_jit(mesh, vertices, camera, extras, *, config: _Config):
+    def one(v, c):
+        return _render_view(mesh, v, c, extras, config)
+
+    if config.batched_vertices or config.batched_camera:
+        axes = (0 if config.batched_vertices else None, 0 if config.batched_camera else None)
+        result, counts = jax.vmap(one, in_axes=axes)(vertices, camera)
+        return result, jnp.max(counts)
+    return one(vertices, camera)
+
+
+def _batched_camera(camera: Camera, batch: int) -> Camera:
+    """Every field of a batched camera with the leading batch axis."""
+    fields = {}
+    for name in ("eye", "target", "up", "fov_y", "aspect", "near", "far"):
+        value = getattr(camera, name)
+        core = (3,) if name in ("eye", "target", "up") else ()
+        if value.shape not in (core, (batch,) + core):
+            raise ValueError(
+                f"`camera.{name}` must have shape {core} or {(batch,) + core} for a "
+                f"batch of {batch}, got {value.shape}"
+            )
+        fields[name] = jnp.broadcast_to(value, (batch,) + core)
+    eye = fields.pop("eye")
+    return Camera(eye, fields.pop("target"), fields.pop("up"), **fields)
+
+
+def _check_render_inputs(mesh, camera, vertices, attributes):
+    check_mesh_camera(mesh, camera)
+    if vertices is None:
+        vertices = mesh.vertices
+    else:
+        vertices = as_float(vertices, "vertices")
+        check_shape(vertices, "vertices", (..., mesh.num_vertices, 3))
+        if vertices.ndim not in (2, 3):
+            raise ValueError(
+                f"`vertices` must have shape (V, 3) or (B, V, 3), got {vertices.shape}"
+            )
+        vertices = check_finite(vertices, "vertices")
+    batch = {vertices.shape[0]} if vertices.ndim == 3 else set()
+    if camera.eye.ndim == 2 or any(
+        getattr(camera, n).ndim >= 1 for n in ("fov_y", "aspect", "near", "far")
+    ):
+        sizes = {
+            getattr(camera, n).shape[0]
+            for n in ("eye", "target", "up")
+            if getattr(camera, n).ndim == 2
+        }
+        sizes |= {
+            getattr(camera, n).shape[0]
+            for n in ("fov_y", "aspect", "near", "far")
+            if getattr(camera, n).ndim == 1
+        }
+        batch |= sizes
+    if len(batch) > 1:
+        raise ValueError(f"the batch sizes of `vertices` and `camera` differ: {sorted(batch)}")
+    batched_camera = bool(batch) and (
+        camera.eye.ndim == 2
+        or camera.fov_y.ndim == 1
+        or camera.near.ndim == 1
+        or camera.far.ndim == 1
+        or camera.aspect.ndim == 1
+        or camera.target.ndim == 2
+        or camera.up.ndim == 2
+    )
+    if batched_camera:
+        camera = _batched_camera(camera, batch.pop())
+    if attributes is not None:
+        attributes = as_float(attributes, "attributes")
+        check_shape(attributes, "attributes", (mesh.num_vertices, None))
+    return vertices, camera, batched_camera, attributes
+
+
+def render(
+    mesh: Mesh,
+    camera: Camera,
+    shape: tuple[int, int],
+    *,
+    mode: str = "soft",
+    sigma: float | Float[Array, ""] = 1.0,
+    gamma: float | Float[Array, ""] = 1e-2,
+    lights=None,
+    brdf=None,
+    ambient=0.0,
+    background=0.0,
+    vertices: Float[Array, "*B V 3"] | None = None,
+    attributes: Float[Array, "V A"] | None = None,
+    cull_backfaces: bool = False,
+    antialias: bool = True,
+    eps: float = 1e-4,
+    eps_background: float = 1e-3,
+    tile_size: int = 8,
+    capacity: int | None = None,
+    tiles_per_step: int = 16,
+) -> Rendering:
+    """Render a world-space mesh seen by a camera (see the module docstring).
+
+    **Arguments:**
+
+    - `mesh`: a `gfxlab.mesh.Mesh`: vertex colours (white if absent), a `texture` with
+      `uvs` (multiplied by the colours if both), explicit `normals` (else
+      `vertex_normals`).
+    - `camera`: a `gfxlab.viewing.Camera`; batched fields (`eye (B, 3)`, ...) render a
+      batch of views.
+    - `shape`: image shape `(H, W)` (static).
+    - `mode`: `"soft"` (SoftRas) or `"hard"` (z-buffer with edge antialiasing).
+    - `sigma` (pixels^2), `gamma`: SoftRas' sharpness and depth temperature (soft only).
+    - `lights`, `brdf`, `ambient`: shading (`gfxlab.render.shade`); `lights=None`
+      renders the unlit albedo.
+    - `background`: background colour (scalar or `(C,)`).
+    - `vertices`: optional `(V, 3)` or `(B, V, 3)` positions replacing `mesh.vertices`.
+    - `attributes`: optional `(V, A)` per-vertex attributes, interpolated
+      perspective-correctly into `Rendering.attributes`.
+    - `cull_backfaces`: drop faces that are clockwise on screen. Faces with a corner
+      nearer than the near plane are always dropped.
+    - `antialias`: edge antialiasing of the hard image (gives silhouettes gradients).
+    - `eps`, `eps_background`, `tile_size`, `capacity`, `tiles_per_step`: as in
+      `soft_rasterize`; `capacity=None` measures it from the geometry (eager calls).
+
+    **Returns:** a `Rendering`.
+    """
+    height, width = static_shape(shape)
+    if mode not in ("soft", "hard"):
+        raise ValueError(f"`mode` must be 'soft' or 'hard', got {mode!r}")
+    vertices, camera, batched_camera, attributes = _check_render_inputs(
+        mesh, camera, vertices, attributes
+    )
+    dtype = vertices.dtype
+    sigma = jnp.asarray(as_float(sigma, "sigma"), dtype)
+    gamma = jnp.asarray(as_float(gamma, "gamma"), dtype)
+    sigma, tile_size, capacity, tiles_per_step = check_options(
+        sigma, eps, tile_size, capacity, tiles_per_step
+    )
+    gamma = value_error_if(gamma, ~(gamma > 0), "`gamma` must be > 0")
+    lights = _check_lights(lights)
+    channels = (
+        mesh.colors.shape[1]
+        if mesh.colors is not None
+        else (mesh.texture.shape[-1] if mesh.texture is not None else 3)
+    )
+    background = as_float(background, "background").astype(dtype)
+    if background.ndim > 1 or background.size not in (1, channels):
+        raise ValueError(
+            f"`background` must be a scalar or a colour ({channels},), got shape {background.shape}"
+        )
+    background = jnp.broadcast_to(background, (channels,))
+    params = (sigma, gamma, jnp.asarray(eps_background, dtype))
+    soft = mode == "soft"
+    traced = any_traced(mesh, vertices, camera, sigma)
+    tri = valid = None
+    if not traced:
+
+        def project(v, c):
+            return project_faces(v, mesh.faces, c, (height, width), cull_backfaces=cull_backfaces)
+
+        axes = (0 if vertices.ndim == 3 else None, 0 if batched_camera else None)
+        if axes != (None, None):
+            project = jax.vmap(project, in_axes=axes)
+        tri, _, _, valid = project(vertices, camera)
+    margin = jnp.sqrt(sigma * logit_limit(eps)) if soft else jnp.zeros((), dtype)
+    capacity = resolve_capacity(
+        capacity, tri, valid, margin, (height, width), tile_size, traced, mesh.num_faces
+    )
+    config = _Config(
+        (height, width),
+        soft,
+        float(eps),
+        tile_size,
+        capacity,
+        tiles_per_step,
+        bool(antialias),
+        bool(cull_backfaces),
+        vertices.ndim == 3,
+        batched_camera,
+    )
+    extras = (
+        attributes,
+        lights,
+        brdf,
+        jnp.asarray(as_float(ambient, "ambient"), dtype),
+        background,
+        params,
+    )
+    result, max_count = _render_jit(mesh, vertices, camera, extras, config=config)
+    return eqx.tree_at(
+        lambda r: r.color, result, check_capacity(result.color, max_count, capacity, tile_size)
+    )
+
+
+def shard_cameras(camera: Camera, devices=None) -> Camera:
+    """A batched camera placed across `devices` (default: all) along its batch axis.
+
+    `render` of the result runs sharded (`jax.sharding`): each device renders its share
+    of the views. The batch size must be a multiple of the number of devices.
+    """
+    if not isinstance(camera, Camera):
+        raise TypeError(f"`camera` must be a gfxlab.viewing.Camera, got {type(camera).__name__}")
+    devices = jax.devices() if devices is None else list(devices)
+    if camera.eye.ndim != 2 or camera.eye.shape[0] % len(devices):
+        raise ValueError(
+            f"`camera` must be batched (eye (B, 3)) with B a multiple of the "
+            f"{len(devices)} devices, got eye shape {camera.eye.shape}"
+        )
+    batch = camera.eye.shape[0]
+    camera = _batched_camera(camera, batch)
+    grid = jax.sharding.Mesh(np.asarray(devices), ("views",))
+
+    def put(x):
+        spec = jax.sharding.PartitionSpec("views", *([None] * (x.ndim - 1)))
+        return jax.device_put(x, jax.sharding.NamedSharding(grid, spec))
+
+    return jax.tree_util.tree_map(put, camera)

@@ -1,0 +1,179 @@
+"""Shading through `gfxlab.brdf`: point and directional lights, textures.
+
+Outgoing radiance at a surface point with normal `n`, seen from direction `wo`:
+
+    L = ambient * albedo + sum_lights pi * f(wi, wo, n) * albedo * E * max(n . wi, 0)
+
+where `f` is any `gfxlab.brdf` model (`Lambert`, `Phong`, `BlinnPhong`,
+`CookTorrance` = GGX) called as `f(wi, wo, n)`, `albedo` is the per-pixel colour
+(vertex colours or a texture) and `E` the light's irradiance (a point light's intensity
+falls off as `1 / d^2`). The factor `pi` makes a white Lambert surface facing a light of
+intensity 1 exactly 1. Shading is two-sided: a normal facing away from the viewer is
+flipped.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from .._checks import as_float, check_last_dim, check_shape, safe_norm, value_error_if
+from ..brdf import Lambert
+
+__all__ = ["PointLight", "DirectionalLight", "shade", "sample_texture"]
+
+
+def _intensity(value, name):
+    value = as_float(value, name)
+    if value.ndim > 1:
+        raise ValueError(f"`{name}` must be a scalar or a colour (C,), got shape {value.shape}")
+    return value_error_if(
+        value, ~(value >= 0) | ~jnp.isfinite(value), f"`{name}` must be finite and >= 0"
+    )
+
+
+class PointLight(eqx.Module):
+    """A point light at `position` (world space) of `intensity` (scalar or colour `(C,)`)."""
+
+    position: Float[Array, "3"]
+    intensity: Float[Array, "*C"]
+
+    def __init__(self, position, intensity=1.0):
+        position = as_float(position, "position")
+        check_shape(position, "position", (3,))
+        self.position = value_error_if(
+            position, ~jnp.isfinite(position), "`position` must be finite"
+        )
+        self.intensity = _intensity(intensity, "intensity")
+
+    def incident(self, points):
+        """Unit directions towards the light and the irradiance `(..., 1 or C)`."""
+        to_light = self.position.astype(points.dtype) - points
+        d2 = jnp.sum(to_light * to_light, -1, keepdims=True)
+        wi = _unit_or(to_light, jnp.array([0.0, 0.0, 1.0], points.dtype))
+        return wi, self.intensity.astype(points.dtype) / jnp.maximum(d2, 1e-12)
+
+
+class DirectionalLight(eqx.Module):
+    """A light at infinity: `direction` points from the scene towards the light."""
+
+    direction: Float[Array, "3"]
+    intensity: Float[Array, "*C"]
+
+    def __init__(self, direction, intensity=1.0):
+        direction = as_float(direction, "direction")
+        check_shape(direction, "direction", (3,))
+        length = safe_norm(direction)
+        self.direction = value_error_if(
+            direction,
+            ~(length > 0) | ~jnp.all(jnp.isfinite(direction)),
+            "`direction` must be a finite non-zero vector",
+        )
+        self.intensity = _intensity(intensity, "intensity")
+
+    def incident(self, points):
+        d = self.direction.astype(points.dtype)
+        wi = jnp.broadcast_to(d / safe_norm(d), points.shape)
+        return wi, jnp.broadcast_to(
+            self.intensity.astype(points.dtype), points.shape[:-1] + (self.intensity.shape or (1,))
+        )
+
+
+def _unit_or(v, fallback):
+    """`v / |v|`, or `fallback` where `v` is zero (finite gradients)."""
+    length = safe_norm(v, keepdims=True)
+    return jnp.where(length > 0, v / jnp.where(length > 0, length, 1.0), fallback)
+
+
+def _check_lights(lights):
+    if lights is None:
+        return None
+    if isinstance(lights, PointLight | DirectionalLight):
+        return (lights,)
+    lights = tuple(lights)
+    for k, light in enumerate(lights):
+        if not isinstance(light, PointLight | DirectionalLight):
+            raise TypeError(
+                f"`lights[{k}]` must be a PointLight or DirectionalLight, got "
+                f"{type(light).__name__}"
+            )
+    return lights
+
+
+def shade(
+    albedo: Float[Array, "*batch C"],
+    normal: Float[Array, "*batch 3"],
+    position: Float[Array, "*batch 3"],
+    eye: Float[Array, "3"],
+    *,
+    lights,
+    brdf=None,
+    ambient=0.0,
+) -> Float[Array, "*batch C"]:
+    """Radiance of surface points (see the module docstring for the formula).
+
+    **Arguments:**
+
+    - `albedo`: `(..., C)` colours; `normal` `(..., 3)` (normalised here; zero normals
+      face the viewer); `position` `(..., 3)` world positions; `eye` the camera position.
+    - `lights`: a light or a sequence of `PointLight` / `DirectionalLight`.
+    - `brdf`: a `gfxlab.brdf` model (default `Lambert()`).
+    - `ambient`: ambient term (scalar or `(C,)`).
+
+    **Returns:** `(..., C)` radiance.
+    """
+    albedo, normal, position = (
+        as_float(a, n) for a, n in ((albedo, "albedo"), (normal, "normal"), (position, "position"))
+    )
+    check_last_dim(normal, "normal", (3,))
+    check_last_dim(position, "position", (3,))
+    lights = _check_lights(lights)
+    brdf = Lambert() if brdf is None else brdf
+    if not callable(brdf):
+        raise TypeError(f"`brdf` must be a gfxlab.brdf model, got {type(brdf).__name__}")
+    dtype = albedo.dtype
+    eye = as_float(eye, "eye").astype(dtype)
+    up = jnp.array([0.0, 0.0, 1.0], dtype)
+    wo = _unit_or(eye - position, up)
+    n = _unit_or(normal, wo)
+    n = jnp.where(jnp.sum(n * wo, -1, keepdims=True) < 0, -n, n)  # two-sided
+    radiance = as_float(ambient, "ambient").astype(dtype) * albedo
+    for light in lights or ():
+        wi, irradiance = light.incident(position)
+        f = brdf(wi, wo, n)
+        cos = jnp.maximum(jnp.sum(n * wi, -1), 0.0)
+        radiance = radiance + (jnp.pi * f * cos)[..., None] * albedo * irradiance
+    return radiance
+
+
+def sample_texture(
+    texture: Float[Array, "Ht Wt C"], uv: Float[Array, "*batch 2"]
+) -> Float[Array, "*batch C"]:
+    """Bilinear texture lookup, differentiable in the texture and in `uv`.
+
+    `uv = (0, 0)` is the lower-left corner of the image and `(1, 1)` the upper-right
+    (OBJ `vt` convention; row 0 of `texture` is the top). Texel centres sit at
+    `((col + 1/2) / Wt, 1 - (row + 1/2) / Ht)`; outside the image the edge texels repeat
+    (clamp to edge).
+    """
+    texture = as_float(texture, "texture")
+    check_shape(texture, "texture", (None, None, None))
+    uv = as_float(uv, "uv").astype(texture.dtype)
+    check_last_dim(uv, "uv", (2,), "texture coordinates (u, v)")
+    height, width = texture.shape[:2]
+    # texel space, y up (the pixel convention of gfxlab._pixels), then array rows
+    x = jnp.clip(uv[..., 0] * width - 0.5, 0.0, width - 1.0)
+    y = jnp.clip(uv[..., 1] * height - 0.5, 0.0, height - 1.0)
+    x0 = jnp.clip(jnp.floor(jax.lax.stop_gradient(x)), 0, max(width - 2, 0)).astype(jnp.int32)
+    y0 = jnp.clip(jnp.floor(jax.lax.stop_gradient(y)), 0, max(height - 2, 0)).astype(jnp.int32)
+    x1, y1 = jnp.minimum(x0 + 1, width - 1), jnp.minimum(y0 + 1, height - 1)
+    fx, fy = (x - x0)[..., None], (y - y0)[..., None]
+
+    def at(xi, yi):
+        return texture[height - 1 - yi, xi]
+
+    bottom = at(x0, y0) * (1 - fx) + at(x1, y0) * fx
+    top = at(x0, y1) * (1 - fx) + at(x1, y1) * fx
+    return bottom * (1 - fy) + top * fy

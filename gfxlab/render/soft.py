@@ -1,0 +1,363 @@
+"""Soft rasterization (SoftRas): the differentiable silhouette and the flat-shaded colour.
+
+Each face `j` gives every pixel a probability `D_j = sigmoid(sign * d^2 / sigma)`, where
+`d` is the distance from the pixel centre to the projected triangle and `sign` is +1
+inside, -1 outside. The silhouette is `A = 1 - prod_j (1 - D_j)`; the colour is a
+softmax over faces weighted by `D_j` and by their normalised inverse depth `z_j` with
+temperature `gamma`, plus a background term:
+
+    w_j = D_j exp(z_j / gamma) / (sum_k D_k exp(z_k / gamma) + exp(eps_bg / gamma)).
+
+`sigma` is in pixels^2 and all distances are in pixels (y up, pixel centres on
+integers, `gfxlab._pixels`), so the look does not change with resolution. A face whose
+probability at a pixel is below `eps` is dropped there, which makes each face's reach
+finite (a margin of `sqrt(sigma * log(1 / eps - 1))` pixels), so the image is cut into
+tiles that only see the faces binned into them (see `_tiles`).
+"""
+
+from __future__ import annotations
+
+import functools
+
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, Float, Int
+
+from .._checks import as_float, check_finite, check_shape, static_shape, value_error_if
+from .._pixels import pixel_centers
+from ..mesh import Mesh, check_faces, face_normals
+from ..viewing import Camera
+from ._project import check_mesh_camera, project_faces
+from ._tiles import (
+    any_traced,
+    check_capacity,
+    check_options,
+    logit_limit,
+    max_tile_count,
+    pixel_face_terms,
+    resolve_capacity,
+    round_capacity,
+    tiled,
+)
+
+__all__ = ["soft_silhouette", "soft_rasterize", "tile_capacity"]
+
+
+def _silhouette_pixels(points, tri, slot_mask, sigma, eps):
+    d2, inside, _ = pixel_face_terms(points, tri)
+    keep = slot_mask[None] & (inside | (d2 <= sigma * logit_limit(eps)))
+    x = jnp.where(inside, d2, -d2) / sigma
+    log_miss = jnp.sum(jnp.where(keep, jax.nn.log_sigmoid(-x), 0.0), axis=-1)
+    return -jnp.expm1(log_miss)
+
+
+def _color_pixels(points, faces, slot_mask, params):
+    tri, inv_depth, colors = faces  # (K,3,2), (K,3), (K,3,C)
+    sigma, gamma, eps, near, far, background, eps_bg = params
+    d2, inside, bary = pixel_face_terms(points, tri)
+    keep = slot_mask[None] & (inside | (d2 <= sigma * logit_limit(eps)))
+    x = jnp.where(inside, d2, -d2) / sigma
+    alpha = -jnp.expm1(jnp.sum(jnp.where(keep, jax.nn.log_sigmoid(-x), 0.0), axis=-1))
+    # perspective-correct depth: inverse depth is affine in screen space
+    inv = jnp.sum(bary * inv_depth[None], -1)
+    depth = 1.0 / jnp.where(keep, inv, 1.0)
+    z = (far - depth) / (far - near)
+    logits = jnp.where(keep, jax.nn.log_sigmoid(x) + z / gamma, -jnp.inf)
+    logits = jnp.concatenate([logits, jnp.broadcast_to(eps_bg / gamma, (logits.shape[0], 1))], 1)
+    weights = jax.nn.softmax(logits, axis=-1)
+    color = jnp.einsum("pk,pkc->pc", weights[:, :-1], jnp.einsum("pkv,kvc->pkc", bary, colors))
+    color = color + weights[:, -1:] * background
+    out_depth = jnp.sum(weights[:, :-1] * depth, -1) + weights[:, -1] * far
+    return jnp.concatenate([color, alpha[:, None], out_depth[:, None]], axis=-1)
+
+
+def soft_silhouette(
+    vertices_2d: Float[Array, "V 2"],
+    faces: Int[Array, "F 3"],
+    shape: tuple[int, int],
+    *,
+    sigma: float | Float[Array, ""],
+    eps: float = 1e-4,
+    tile_size: int = 8,
+    capacity: int | None = None,
+    tiles_per_step: int = 16,
+) -> Float[Array, "H W"]:
+    """The soft silhouette `A = 1 - prod_j (1 - D_j)` of 2D triangles.
+
+    **Arguments:**
+
+    - `vertices_2d`: `(V, 2)` finite vertex positions in pixel coordinates (y up, pixel
+      centres on integers); NaN or infinite positions are an error.
+    - `faces`: `(F, 3)` integer vertex indices.
+    - `shape`: image shape `(H, W)` (static).
+    - `sigma`: sharpness in pixels^2 (> 0); small is sharp.
+    - `eps`: probability below which a face is dropped at a pixel (sets the bin margin).
+    - `tile_size`, `capacity`: tiles of `tile_size^2` pixels see at most `capacity`
+      faces each. `None` (default) measures it from the geometry (eager calls); an
+      explicit capacity that an eager call overflows is grown with a warning; under
+      `jax.jit` pass one (`tile_capacity`) and an overflow is an error naming it.
+    - `tiles_per_step`: tiles evaluated together (memory vs. speed).
+
+    **Returns:** `(H, W)` coverage in [0, 1].
+    """
+    height, width = static_shape(shape)
+    vertices_2d = as_float(vertices_2d, "vertices_2d")
+    check_shape(vertices_2d, "vertices_2d", (None, 2))
+    vertices_2d = check_finite(vertices_2d, "vertices_2d")
+    faces = check_faces(faces, vertices_2d.shape[0])
+    sigma = jnp.asarray(sigma, vertices_2d.dtype)
+    sigma, tile_size, capacity, tiles_per_step = check_options(
+        sigma, eps, tile_size, capacity, tiles_per_step
+    )
+    tri = vertices_2d[faces]
+    margin = jnp.sqrt(sigma * logit_limit(eps))
+    capacity = resolve_capacity(
+        capacity,
+        tri,
+        jnp.ones(tri.shape[0], bool),
+        margin,
+        (height, width),
+        tile_size,
+        any_traced(vertices_2d, sigma),
+    )
+    image, max_count = _silhouette_core(
+        vertices_2d,
+        faces,
+        sigma,
+        shape=(height, width),
+        eps=float(eps),
+        tile_size=tile_size,
+        capacity=capacity,
+        tiles_per_step=tiles_per_step,
+    )
+    return check_capacity(image, max_count, capacity, tile_size)
+
+
+@functools.partial(
+    jax.jit, static_argnames=("shape", "eps", "tile_size", "capacity", "tiles_per_step", "binned")
+)
+def _silhouette_core(
+    vertices_2d, faces, sigma, *, shape, eps, tile_size, capacity, tiles_per_step, binned=True
+):
+    tri = vertices_2d[faces]
+    valid = jnp.ones(tri.shape[0], bool)
+    margin = jnp.sqrt(sigma * logit_limit(eps))
+    image, max_count = tiled(
+        lambda pts, sub, mask, ids: _silhouette_pixels(pts, sub, mask, sigma, eps)[:, None],
+        tri,
+        valid,
+        tri,
+        shape,
+        margin=margin,
+        tile_size=tile_size,
+        capacity=capacity,
+        tiles_per_step=tiles_per_step,
+        binned=binned,
+    )
+    return image[..., 0], max_count
+
+
+def _flat_colors(mesh: Mesh, light, ambient):
+    vertices, faces = mesh.vertices, mesh.faces
+    colors = mesh.colors if mesh.colors is not None else jnp.ones_like(vertices)
+    corner_colors = colors[faces]
+    if light is not None:
+        light = as_float(light, "light").astype(vertices.dtype)
+        check_shape(light, "light", (3,))
+        direction = light / jnp.sqrt(jnp.sum(light * light))
+        lambert = jnp.abs(face_normals(vertices, faces) @ direction)  # two-sided
+        corner_colors = corner_colors * (ambient + (1 - ambient) * lambert)[:, None, None]
+    return corner_colors
+
+
+def _project_mesh(mesh: Mesh, camera: Camera, shape, light, ambient):
+    check_mesh_camera(mesh, camera)
+    tri, inv_w, _, valid = project_faces(mesh.vertices, mesh.faces, camera, shape)
+    return tri, inv_w, _flat_colors(mesh, light, ambient), valid
+
+
+def tile_capacity(
+    mesh: Mesh,
+    camera: Camera,
+    shape: tuple[int, int],
+    *,
+    sigma,
+    eps: float = 1e-4,
+    tile_size: int = 8,
+    slack: float = 1.0,
+) -> int:
+    """The tile capacity a render of `mesh` by `camera` needs (call it outside `jax.jit`).
+
+    Counts the largest number of faces whose grown bounding box reaches one tile,
+    multiplies by `slack` (>= 1; room for the geometry to move during a fit) and rounds
+    up to a power of two (at most the number of faces). `camera` may be batched.
+    """
+    check_mesh_camera(mesh, camera)
+    height, width = static_shape(shape)
+    if not isinstance(slack, float | int) or not slack >= 1:
+        raise ValueError(f"`slack` must be a number >= 1, got {slack!r}")
+    sigma = jnp.asarray(sigma, mesh.vertices.dtype)
+    sigma, tile_size, _, _ = check_options(sigma, eps, tile_size, None, 1)
+    project = functools.partial(project_faces, shape=(height, width))
+    if camera.eye.ndim == 2:
+        tri, _, _, valid = jax.vmap(lambda c: project(mesh.vertices, mesh.faces, c))(camera)
+    else:
+        tri, _, _, valid = project(mesh.vertices, mesh.faces, camera)
+    margin = jnp.sqrt(sigma * logit_limit(eps))
+    needed = int(max_tile_count(tri, valid, margin, shape=(height, width), tile_size=tile_size))
+    return round_capacity(int(needed * slack + 0.999), mesh.num_faces)
+
+
+def soft_rasterize(
+    mesh: Mesh,
+    camera: Camera,
+    shape: tuple[int, int],
+    *,
+    sigma: float | Float[Array, ""],
+    gamma: float | Float[Array, ""],
+    background=(0.0, 0.0, 0.0),
+    light=None,
+    ambient: float = 0.3,
+    eps: float = 1e-4,
+    eps_background: float = 1e-3,
+    tile_size: int = 8,
+    capacity: int | None = None,
+    tiles_per_step: int = 16,
+) -> tuple[Float[Array, "H W 4"], Float[Array, "H W"]]:
+    """Render a mesh with the soft rasterizer (SoftRas), flat-shaded.
+
+    Differentiable with respect to the mesh vertices and colours and the camera. Faces
+    with a vertex nearer than the camera's near plane (or behind it) are culled. For
+    smooth shading, textures, normals and the hard rasterizer see `render`.
+
+    **Arguments:**
+
+    - `mesh`: a `gfxlab.mesh.Mesh`; vertex colours (white if absent) are interpolated
+      with clamped barycentric coordinates.
+    - `camera`: a `gfxlab.viewing.Camera`.
+    - `shape`: image shape `(H, W)` (static).
+    - `sigma`: edge sharpness in pixels^2 (> 0).
+    - `gamma`: depth temperature (> 0); small makes the nearest face win.
+    - `background`: background colour `(C,)`.
+    - `light`: optional direction towards a light (world space) for two-sided flat
+      Lambert shading `ambient + (1 - ambient) |n . l|`.
+    - `eps`, `eps_background`: the probability below which a face is dropped at a
+      pixel, and SoftRas' background depth term.
+    - `tile_size`, `capacity`, `tiles_per_step`: as in `soft_silhouette`.
+
+    **Returns:** `(rgba, depth)`: `(H, W, 4)` colour (background blended in) with the
+    soft silhouette as alpha, and the `(H, W)` softmax-weighted eye depth (the
+    background counts as the far plane).
+    """
+    height, width = static_shape(shape)
+    tri, inv_depth, colors, valid = _project_mesh(mesh, camera, (height, width), light, ambient)
+    dtype = tri.dtype
+    sigma = jnp.asarray(sigma, dtype)
+    gamma = jnp.asarray(gamma, dtype)
+    sigma, tile_size, capacity, tiles_per_step = check_options(
+        sigma, eps, tile_size, capacity, tiles_per_step
+    )
+    gamma = value_error_if(gamma, ~(gamma > 0), "`gamma` must be > 0")
+    background = as_float(background, "background").astype(dtype)
+    check_shape(background, "background", (colors.shape[-1],))
+    margin = jnp.sqrt(sigma * logit_limit(eps))
+    capacity = resolve_capacity(
+        capacity, tri, valid, margin, (height, width), tile_size, any_traced(mesh, camera, sigma)
+    )
+    params = (
+        sigma,
+        gamma,
+        camera.near.astype(dtype),
+        camera.far.astype(dtype),
+        background,
+        jnp.asarray(eps_background, dtype),
+    )
+    out, max_count = _color_core(
+        tri,
+        inv_depth,
+        colors,
+        valid,
+        params,
+        shape=(height, width),
+        eps=float(eps),
+        tile_size=tile_size,
+        capacity=capacity,
+        tiles_per_step=tiles_per_step,
+    )
+    out = check_capacity(out, max_count, capacity, tile_size)
+    return out[..., :-1], out[..., -1]
+
+
+@functools.partial(
+    jax.jit, static_argnames=("shape", "eps", "tile_size", "capacity", "tiles_per_step", "binned")
+)
+def _color_core(
+    tri,
+    inv_depth,
+    colors,
+    valid,
+    params,
+    *,
+    shape,
+    eps,
+    tile_size,
+    capacity,
+    tiles_per_step,
+    binned=True,
+):
+    sigma, gamma, near, far, background, eps_bg = params
+    margin = jnp.sqrt(sigma * logit_limit(eps))
+    full = (sigma, gamma, eps, near, far, background, eps_bg)
+    return tiled(
+        lambda pts, sub, mask, ids: _color_pixels(pts, sub, mask, full),
+        tri,
+        valid,
+        (tri, inv_depth, colors),
+        shape,
+        margin=margin,
+        tile_size=tile_size,
+        capacity=capacity,
+        tiles_per_step=tiles_per_step,
+        binned=binned,
+    )
+
+
+@functools.partial(jax.jit, static_argnames=("shape", "eps"))
+def _dense_soft_rasterize(
+    mesh,
+    camera,
+    shape,
+    *,
+    sigma,
+    gamma,
+    background=(0.0, 0.0, 0.0),
+    light=None,
+    ambient=0.3,
+    eps=1e-4,
+    eps_background=1e-3,
+):
+    """Reference: every pixel against every face in one step (no tiles, no bins)."""
+    height, width = shape
+    tri, inv_depth, colors, valid = _project_mesh(mesh, camera, shape, light, ambient)
+    dtype = tri.dtype
+    params = (
+        jnp.asarray(sigma, dtype),
+        jnp.asarray(gamma, dtype),
+        eps,
+        camera.near.astype(dtype),
+        camera.far.astype(dtype),
+        jnp.asarray(background, dtype),
+        jnp.asarray(eps_background, dtype),
+    )
+    points = pixel_centers((height, width), dtype).reshape(-1, 2)
+    out = _color_pixels(points, (tri, inv_depth, colors), valid, params).reshape(height, width, -1)
+    return out[..., :-1], out[..., -1]
+
+
+@functools.partial(jax.jit, static_argnames=("shape", "eps"))
+def _dense_soft_silhouette(vertices_2d, faces, shape, *, sigma, eps=1e-4):
+    """Reference: every pixel against every face in one step (no tiles, no bins)."""
+    tri = vertices_2d[faces]
+    points = pixel_centers(shape, tri.dtype).reshape(-1, 2)
+    valid = jnp.ones(tri.shape[0], bool)
+    return _silhouette_pixels(points, tri, valid, sigma, eps).reshape(shape)

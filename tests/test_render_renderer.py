@@ -1,0 +1,347 @@
+"""`render`: barycentrics and attributes vs NumPy, shading vs gfxlab.brdf, sharp limits,
+gradients, textures, batches, sharding and bad inputs."""
+
+import functools
+import os
+import subprocess
+import sys
+import textwrap
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from jax.test_util import check_grads
+from scipy.ndimage import map_coordinates
+
+from gfxlab import brdf as B
+from gfxlab import render as R
+from gfxlab.mesh import Mesh, icosphere
+from gfxlab.viewing import Camera
+
+SHAPE = (14, 16)
+
+
+def cross(u, v):
+    return u[0] * v[1] - u[1] * v[0]
+
+
+def triangle_soup(seed=4, count=5):
+    """Tilted triangles at distinct depths, per-face colours (vertices not shared)."""
+    rng = np.random.default_rng(seed)
+    centres = np.concatenate(
+        [rng.uniform(-0.5, 0.5, (count, 1, 2)), np.linspace(-1, 1, count)[:, None, None]], -1
+    )
+    vertices = centres + rng.normal(0, 1.0, (count, 3, 3)) * np.array([1, 1, 0.1])
+    colors = np.repeat(rng.uniform(0.1, 1, (count, 3)), 3, axis=0)
+    faces = np.arange(3 * count).reshape(count, 3)
+    return Mesh(jnp.asarray(vertices.reshape(-1, 3)), jnp.asarray(faces), jnp.asarray(colors))
+
+
+CAMERA = Camera(jnp.array([0.2, 0.3, 4.0]), near=1.0, far=8.0)
+
+
+def numpy_reference(mesh, camera, shape, attributes):
+    """Per pixel: nearest covering face by eye depth, perspective-correct barycentrics."""
+    h, w = shape
+    v = np.asarray(mesh.vertices)
+    m = np.asarray(camera.matrix())
+    clip = np.c_[v, np.ones(len(v))] @ m.T
+    ndc = clip[:, :3] / clip[:, 3:]
+    px = np.stack([(ndc[:, 0] + 1) / 2 * w - 0.5, (ndc[:, 1] + 1) / 2 * h - 0.5], -1)
+    eye_depth = clip[:, 3]  # for a perspective matrix w_clip = -z_eye
+    face = np.full(shape, -1)
+    bary = np.zeros(shape + (3,))
+    best = np.full(shape, np.inf)
+    for f, (i, j, k) in enumerate(np.asarray(mesh.faces)):  # a test reference: clarity first
+        a, b, c = px[i], px[j], px[k]
+        area = cross(b - a, c - a)
+        for row in range(h):
+            for col in range(w):
+                p = np.array([col, h - 1 - row], float)
+                l0 = cross(c - b, p - b) / area
+                l1 = cross(a - c, p - c) / area
+                l2 = 1 - l0 - l1
+                if min(l0, l1, l2) < 0:
+                    continue
+                q = np.array([l0, l1, l2]) / eye_depth[[i, j, k]]
+                depth = 1 / q.sum()
+                if depth < best[row, col]:
+                    best[row, col], face[row, col], bary[row, col] = depth, f, q * depth
+    attrs = np.einsum("hwv,hwva->hwa", bary, attributes[np.asarray(mesh.faces)[face]])
+    attrs[face < 0] = 0
+    return face, bary, attrs, best
+
+
+@functools.lru_cache
+def hard_soup():
+    mesh = triangle_soup()
+    attributes = np.random.default_rng(1).normal(size=(mesh.num_vertices, 2))
+    rendering = R.render(
+        mesh,
+        CAMERA,
+        SHAPE,
+        mode="hard",
+        attributes=jnp.asarray(attributes),
+        antialias=False,
+        background=jnp.zeros(3),
+    )
+    return mesh, attributes, rendering
+
+
+def test_barycentrics_and_attributes_equal_a_numpy_reference():
+    mesh, attributes, r = hard_soup()
+    face, bary, attrs, depth = numpy_reference(mesh, CAMERA, SHAPE, attributes)
+    assert 0.2 < np.mean(face >= 0) < 0.95 and len(np.unique(face)) >= 4  # a real scene
+    np.testing.assert_array_equal(r.face_index, face)
+    covered = face >= 0
+    np.testing.assert_allclose(np.asarray(r.barycentrics)[covered], bary[covered], atol=1e-9)
+    np.testing.assert_allclose(r.attributes, attrs, atol=1e-9)
+    np.testing.assert_allclose(np.asarray(r.depth)[covered], depth[covered], rtol=1e-9)
+    # the standalone interpolation agrees, and the colours are the faces' colours
+    again = R.interpolate(jnp.asarray(attributes), mesh.faces, r.face_index, r.barycentrics)
+    np.testing.assert_allclose(again, attrs, atol=1e-9)
+    # perspective-correct, not screen-space: the two differ on this tilted scene
+    assert np.max(np.abs(np.asarray(r.barycentrics)[covered].sum(-1) - 1)) < 1e-9
+
+
+def test_hard_and_soft_equal_the_zbuffer_in_the_sharp_limit():
+    mesh, _, hard = hard_soup()
+    triangles, colors = R.screen_scene(mesh, CAMERA, SHAPE)
+    z = R.zbuffer(triangles, colors, SHAPE)
+    np.testing.assert_allclose(hard.color, z.image, atol=1e-12)
+    np.testing.assert_array_equal(np.asarray(hard.alpha) > 0, np.isfinite(z.depth))
+    soft = R.render(
+        mesh, CAMERA, SHAPE, mode="soft", sigma=1e-6, gamma=1e-4, background=jnp.zeros(3)
+    )
+    agree = np.all(np.abs(np.asarray(soft.color) - np.asarray(z.image)) < 1e-3, -1)
+    assert agree.mean() >= 0.97
+    blurry = R.render(
+        mesh, CAMERA, SHAPE, mode="soft", sigma=1.0, gamma=0.1, background=jnp.zeros(3)
+    )
+    assert np.all(np.abs(np.asarray(blurry.color) - np.asarray(z.image)) < 1e-3, -1).mean() < (
+        agree.mean()
+    )
+
+
+def test_shading_equals_gfxlab_brdf_per_pixel():
+    sphere = icosphere(1, radius=0.9)
+    colors = 0.4 + 0.5 * np.abs(np.asarray(sphere.vertices))
+    mesh = Mesh(sphere.vertices, sphere.faces, colors)
+    camera = Camera(jnp.array([0.5, 0.8, 3.0]), near=0.5, far=10.0)
+    lights = [R.PointLight([2.0, 2.0, 2.0], 6.0), R.DirectionalLight([-1.0, 0.5, 1.0], 0.7)]
+    model = B.CookTorrance(roughness=0.4, f0=0.04, kd=0.8)
+    r = R.render(
+        mesh,
+        camera,
+        SHAPE,
+        mode="hard",
+        lights=lights,
+        brdf=model,
+        ambient=0.05,
+        antialias=False,
+        background=jnp.zeros(3),
+    )
+    covered = np.asarray(r.face_index) >= 0
+    assert covered.mean() > 0.3
+    albedo = np.asarray(R.interpolate(mesh.colors, mesh.faces, r.face_index, r.barycentrics))
+    n, p = np.asarray(r.normal)[covered], np.asarray(r.position)[covered]
+    wo = np.asarray(camera.eye) - p
+    wo /= np.linalg.norm(wo, axis=-1, keepdims=True)
+    n = np.where((np.sum(n * wo, -1) < 0)[:, None], -n, n)
+    expected = 0.05 * albedo[covered]
+    for light in lights:
+        if isinstance(light, R.PointLight):
+            to = np.asarray(light.position) - p
+            irradiance = float(light.intensity) / np.sum(to * to, -1)
+        else:
+            to = np.broadcast_to(np.asarray(light.direction), p.shape)
+            irradiance = float(light.intensity)
+        wi = to / np.linalg.norm(to, axis=-1, keepdims=True)
+        f = np.asarray(
+            B.cook_torrance(
+                jnp.asarray(wi), jnp.asarray(wo), jnp.asarray(n), roughness=0.4, f0=0.04, kd=0.8
+            )
+        )
+        cos = np.maximum(np.sum(n * wi, -1), 0)
+        expected = expected + (np.pi * f * cos * irradiance)[:, None] * albedo[covered]
+    np.testing.assert_allclose(np.asarray(r.color)[covered], expected, rtol=1e-9, atol=1e-12)
+    # the interpolated normals are unit and point outwards on a sphere
+    np.testing.assert_allclose(np.linalg.norm(np.asarray(r.normal)[covered], axis=-1), 1.0)
+    assert np.all(np.sum(np.asarray(r.normal)[covered] * np.asarray(r.position)[covered], -1) > 0)
+
+
+def test_texture_sampling_is_bilinear_and_rendered_through_uvs():
+    rng = np.random.default_rng(4)
+    texture = rng.uniform(0, 1, (5, 7, 3))
+    uv = rng.uniform(-0.1, 1.1, (40, 2))
+    ours = R.sample_texture(jnp.asarray(texture), jnp.asarray(uv))
+    rows = (1 - uv[:, 1]) * 5 - 0.5  # row 0 at the top
+    cols = uv[:, 0] * 7 - 0.5
+    ref = np.stack(
+        [map_coordinates(texture[..., c], [rows, cols], order=1, mode="nearest") for c in range(3)],
+        -1,
+    )
+    np.testing.assert_allclose(ours, ref, atol=1e-12)
+    # a textured square facing the camera shows the texture where its uv lands
+    square = Mesh(
+        jnp.array([[-1.0, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]),
+        jnp.array([[0, 1, 2], [0, 2, 3]]),
+        uvs=jnp.array([[0.0, 0], [1, 0], [1, 1], [0, 1]]),
+        uv_faces=jnp.array([[0, 1, 2], [0, 2, 3]]),
+        texture=jnp.asarray(texture),
+    )
+    camera = Camera(jnp.array([0.0, 0.0, 3.0]), near=0.5, far=10.0)
+    r = R.render(
+        square,
+        camera,
+        SHAPE,
+        mode="hard",
+        antialias=False,
+        attributes=jnp.array([[0.0, 0], [1, 0], [1, 1], [0, 1]]),
+    )
+    covered = np.asarray(r.face_index) >= 0
+    expected = R.sample_texture(jnp.asarray(texture), r.attributes)
+    np.testing.assert_allclose(
+        np.asarray(r.color)[covered], np.asarray(expected)[covered], atol=1e-12
+    )
+    # differentiable in the texture
+    g = jax.grad(lambda t: jnp.sum(R.sample_texture(t, jnp.asarray(uv))))(jnp.asarray(texture))
+    assert np.all(np.isfinite(g)) and float(jnp.sum(g)) == pytest.approx(len(uv) * 3)
+
+
+def tiny_scene():
+    vertices = jnp.array(
+        [
+            [-0.5, -0.4, 0.0],
+            [0.6, -0.3, 0.1],
+            [0.0, 0.6, -0.1],
+            [-0.2, -0.1, 0.3],
+            [0.5, 0.3, 0.4],
+            [-0.3, 0.5, 0.2],
+        ]
+    )
+    faces = jnp.array([[0, 1, 2], [3, 4, 5]])
+    colors = jnp.array(
+        [
+            [1.0, 0.2, 0.1],
+            [0.9, 0.8, 0.1],
+            [0.1, 0.9, 0.5],
+            [0.2, 0.3, 1.0],
+            [0.5, 0.1, 0.9],
+            [0.3, 0.7, 0.2],
+        ]
+    )
+    return vertices, faces, colors
+
+
+@pytest.mark.parametrize("mode", ["soft", "hard"])
+def test_check_grads(mode):
+    vertices, faces, colors = tiny_scene()
+    light = R.DirectionalLight([0.3, 0.4, 1.0])
+
+    @jax.jit
+    def image(vertices, colors):
+        camera = Camera(jnp.array([0.2, 0.1, 2.5]), near=0.5, far=5.0)
+        r = R.render(
+            Mesh(vertices, faces, colors),
+            camera,
+            (7, 7),
+            mode=mode,
+            sigma=3.0,
+            gamma=0.2,
+            eps=1e-12,
+            lights=light,
+            ambient=0.2,
+            tile_size=4,
+        )
+        return r.color, r.alpha
+
+    check_grads(image, (vertices, colors), order=1, modes=("rev",), eps=1e-6, rtol=1e-4, atol=1e-6)
+    if mode == "hard":  # the antialiased silhouette moves with the vertices
+        g = jax.grad(lambda v: jnp.sum(image(v, colors)[1]))(vertices)
+        assert float(jnp.abs(g).sum()) > 0
+
+
+def test_batched_views_and_vertices_equal_single_renders():
+    vertices, faces, colors = tiny_scene()
+    mesh = Mesh(vertices, faces, colors)
+    eyes = jnp.array([[0.2, 0.1, 2.5], [-0.4, 0.3, 2.2]])
+    cameras = Camera(eyes, near=0.5, far=5.0)
+    batch = R.render(mesh, cameras, (9, 9), sigma=0.5)
+    for b in range(2):
+        one = R.render(mesh, Camera(eyes[b], near=0.5, far=5.0), (9, 9), sigma=0.5)
+        np.testing.assert_allclose(batch.color[b], one.color, atol=1e-12)
+    moved = jnp.stack([vertices, vertices + 0.1])
+    batch = R.render(mesh, Camera(eyes[0], near=0.5, far=5.0), (9, 9), vertices=moved, sigma=0.5)
+    one = R.render(
+        Mesh(vertices + 0.1, faces, colors), Camera(eyes[0], near=0.5, far=5.0), (9, 9), sigma=0.5
+    )
+    np.testing.assert_allclose(batch.alpha[1], one.alpha, atol=1e-12)
+
+
+def test_sharded_views_equal_unsharded():
+    script = textwrap.dedent("""
+        import jax, jax.numpy as jnp, numpy as np
+        jax.config.update("jax_enable_x64", True)
+        from gfxlab import render as R
+        from gfxlab.mesh import icosphere
+        from gfxlab.viewing import Camera
+        assert len(jax.devices()) == 2
+        mesh = icosphere(0).with_colors(jnp.array([0.9, 0.6, 0.3]))
+        eyes = jnp.array([[0.0, 0.5, 3.0], [1.0, 0.2, 3.0], [-1.0, 0.4, 2.5], [0.3, -1.0, 3.0]])
+        cameras = Camera(eyes, near=0.5, far=10.0)
+        plain = R.render(mesh, cameras, (10, 10), sigma=0.5)
+        sharded = R.shard_cameras(cameras)
+        assert len(sharded.eye.sharding.device_set) == 2
+        split = R.render(mesh, sharded, (10, 10), sigma=0.5)
+        np.testing.assert_allclose(split.color, plain.color, atol=1e-12)
+        assert len(split.color.sharding.device_set) == 2
+        print("ok")
+    """)
+    env = dict(
+        os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2", JAX_PLATFORMS="cpu"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=600
+    )
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert out.stdout.strip().endswith("ok")
+
+
+def test_bad_inputs():
+    vertices, faces, colors = tiny_scene()
+    mesh = Mesh(vertices, faces, colors)
+    camera = Camera(jnp.array([0.2, 0.1, 2.5]), near=0.5, far=5.0)
+    with pytest.raises(ValueError, match="mode"):
+        R.render(mesh, camera, (8, 8), mode="wire")
+    with pytest.raises(TypeError, match="mesh"):
+        R.render(vertices, camera, (8, 8))
+    with pytest.raises(TypeError, match="camera"):
+        R.render(mesh, None, (8, 8))
+    with pytest.raises(ValueError, match="vertices"):
+        R.render(mesh, camera, (8, 8), vertices=jnp.zeros((5, 3)))
+    with pytest.raises(ValueError, match="vertices"):
+        R.render(mesh, camera, (8, 8), vertices=vertices.at[0, 0].set(jnp.nan))
+    with pytest.raises(ValueError, match="sigma"):
+        R.render(mesh, camera, (8, 8), sigma=0.0)
+    with pytest.raises(ValueError, match="gamma"):
+        R.render(mesh, camera, (8, 8), gamma=-1.0)
+    with pytest.raises(ValueError, match="background"):
+        R.render(mesh, camera, (8, 8), background=jnp.zeros(2))
+    with pytest.raises(ValueError, match="attributes"):
+        R.render(mesh, camera, (8, 8), attributes=jnp.zeros((4, 2)))
+    with pytest.raises(TypeError, match="lights"):
+        R.render(mesh, camera, (8, 8), lights=[jnp.ones(3)])
+    with pytest.raises(ValueError, match="batch"):
+        R.render(mesh, Camera(jnp.ones((2, 3)) * 3), (8, 8), vertices=jnp.stack([vertices] * 3))
+    with pytest.raises(ValueError, match="intensity"):
+        R.PointLight([0.0, 0.0, 1.0], -1.0)
+    with pytest.raises(ValueError, match="direction"):
+        R.DirectionalLight([0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="uv"):
+        R.sample_texture(jnp.ones((2, 2, 3)), jnp.ones((4, 3)))
+    with pytest.raises(ValueError, match="barycentrics"):
+        R.interpolate(colors, faces, jnp.zeros((2, 2), int), jnp.zeros((2, 2, 2)))
+    with pytest.raises(ValueError, match="devices"):
+        R.shard_cameras(camera)
