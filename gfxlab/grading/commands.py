@@ -91,37 +91,44 @@ class AssignResult:
     gradescope: pathlib.Path | None = None
 
 
-def prove_tests(grader: Autograder, assignment: authoring.Assignment, limits=None):
-    """Reference passes everything; blank notebook and wrong answers earn nothing."""
-    reference = grader.grade_cells(grader.solution_cells(), label="reference", limits=limits)
-    if reference.error:
-        raise authoring.AuthoringError(f"the sandbox did not start: {reference.error}")
+def prove_tests(grader: Autograder, assignment: authoring.Assignment, limits=None, *,
+                fail_fast=False):
+    """Reference passes everything; blank notebook and wrong answers earn nothing.
+
+    The reference and the wrong answers (`gfxlab.grading.mutants`) share one sandboxed
+    process; the unsolved notebook gets its own. **Returns:** (reference, blank, number of
+    wrong answers); raises `AuthoringError` listing every weak test (the first one only
+    with `fail_fast`).
+    """
+    plan, cell = mutants.plan(grader.questions, grader.solution_cells())
+    reference, weak = mutants.grade_reference_and_mutants(grader, plan, cell, limits,
+                                                          fail_fast=fail_fast)
     failures = [f"{q.name}.{t.name}: {t.message or 'failed'}"
                 for q in reference.questions for t in q.tests if not t.passed]
     if failures:
         detail = "\n".join(failures + reference.notes)
         raise authoring.AuthoringError(f"tests fail on the reference solution:\n{detail}")
-    blank = grader.grade_cells(authoring.student_code_cells(assignment.student), label="blank",
-                               limits=limits)
-    earned = [f"{q.name}: the unsolved notebook passes {t.name}"
-              for q in blank.questions for t in q.tests if t.passed]
-    plan, cell = mutants.plan(grader.questions, grader.solution_cells())
-    earned += mutants.earned_marks(grader, plan, cell, limits)
-    if earned:
+    if not (weak and fail_fast):
+        blank = grader.grade_cells(authoring.student_code_cells(assignment.student),
+                                   label="blank", limits=limits)
+        weak = [f"{q.name}: the unsolved notebook passes {t.name}"
+                for q in blank.questions for t in q.tests if t.passed] + weak
+    if weak:
         raise authoring.AuthoringError(
             "tests too weak: wrong answers earn marks (strengthen these tests):\n"
-            + "\n".join(earned))
+            + "\n".join(weak))
     return reference, blank, len(plan)
 
 
-def assign(source, out, *, verify_tests=True, limits=None, gradescope=False,
+def assign(source, out, *, verify_tests=True, limits=None, gradescope=False, fail_fast=False,
            verify=None) -> AssignResult:
     """Split an instructor notebook into `out/student/NAME.ipynb` and `out/autograder/`.
 
     With `verify_tests` (default), the reference solution must pass every test (public
     and hidden), and neither the unsolved student notebook nor any generated wrong answer
     may pass any test; otherwise `AuthoringError`. With `gradescope`, also writes
-    `out/autograder.zip` for Gradescope (`gfxlab.grading.gradescope`).
+    `out/autograder.zip` for Gradescope (`gfxlab.grading.gradescope`). `fail_fast` stops
+    at the first weak test.
     """
     if verify is not None:  # old keyword
         verify_tests = verify
@@ -135,7 +142,8 @@ def assign(source, out, *, verify_tests=True, limits=None, gradescope=False,
     result = AssignResult(student_path, grader_dir, None, None)
     if verify_tests:
         grader = Autograder(grader_dir)
-        result.reference, result.blank, result.mutants = prove_tests(grader, assignment, limits)
+        result.reference, result.blank, result.mutants = prove_tests(grader, assignment, limits,
+                                                                    fail_fast=fail_fast)
     if gradescope:
         from .gradescope import write_zip
 

@@ -40,6 +40,9 @@ from .sandbox import (
 __all__ = ["Autograder", "GradeResult", "QuestionResult", "StudentFunction", "TestResult",
            "check_array", "Feedback"]
 
+MAX_NOTEBOOK_BYTES = 16 * 2**20
+
+
 class StudentCallError(AssertionError):
     """A call to a student function failed (raised, timed out, crashed, bad value)."""
 
@@ -474,6 +477,10 @@ class Autograder:
         path = pathlib.Path(submission)
         label = _bounded(path.name, 200)
         try:
+            size = path.stat().st_size
+            if size > MAX_NOTEBOOK_BYTES:
+                raise ValueError(f"the notebook is too large ({size / 2**20:.0f} MB; at most "
+                                 f"{MAX_NOTEBOOK_BYTES // 2**20} MB)")
             notebook = authoring.read_notebook(path)
             cells = authoring.student_code_cells(notebook)
         except Exception as exc:  # unreadable notebook: zero, with the reason

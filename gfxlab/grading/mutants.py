@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import ast
 import dataclasses
+import time
 
 from . import authoring
 
@@ -110,27 +111,48 @@ def plan(questions: list[authoring.Question], solution_cells: list[str]):
     return mutants, "\n".join(lines)
 
 
-def earned_marks(grader, mutants, cell, limits=None) -> list[str]:
-    """Grade every mutant (one sandboxed process); the tests a wrong answer passes."""
+def grade_reference_and_mutants(grader, mutants, cell, limits=None, *, fail_fast=False):
+    """Grade the reference, then every mutant, in one sandboxed process.
+
+    **Returns:** (the reference's `GradeResult`, the tests wrong answers pass).
+    """
+    from .grader import GradeResult
+
+    prot = grader_confinement()
+    started = time.perf_counter()
     session = grader.session([*grader.solution_cells(), cell], limits)
-    failures = []
+    weak = []
     try:
-        session.start()
-        if session.infrastructure_error:
-            raise authoring.AuthoringError(
-                f"the sandbox did not start: {session.infrastructure_error}")
-        if any(status != "ok" for status in session.status):
-            raise authoring.AuthoringError(f"the mutant cell failed: {session.notes}")
-        questions = {q.name: q for q in grader.questions}
+        try:
+            session.start()
+        except Exception as exc:
+            session._note(str(exc))
+        questions = [grader._grade_question(q, session, False) for q in grader.questions]
+        reference = GradeResult("reference", questions, session.notes, prot.describe(),
+                                time.perf_counter() - started, session.infrastructure_error)
+        if reference.error:
+            raise authoring.AuthoringError(f"the sandbox did not start: {reference.error}")
+        if reference.score < reference.max_score:
+            return reference, weak
+        if session.status[-1] != "ok":
+            raise authoring.AuthoringError(f"the wrong answers did not load: {session.notes}")
+        by_name = {q.name: q for q in grader.questions}
         for m in mutants:
-            q = questions[m.question]
+            q = by_name[m.question]
             tests = [t for t in q.tests if m.tests is None or t.name in m.tests]
             sub = authoring.Question(q.name, q.points, tests)
             result = grader._grade_question(sub, session, False, {m.function: m.name})
             passed = [t.name for t in result.tests if t.passed]
             if passed:
-                failures.append(f"{m.question}: `{m.function}` {m.kind} passes "
-                                f"{', '.join(passed)}")
+                weak.append(f"{m.question}: `{m.function}` {m.kind} passes {', '.join(passed)}")
+                if fail_fast:
+                    break
     finally:
         session.close()
-    return failures
+    return reference, weak
+
+
+def grader_confinement():
+    from .sandbox import require_confinement
+
+    return require_confinement()

@@ -478,7 +478,11 @@ class Sandbox:
         rid = secrets.token_hex(16)
         deadline = time.monotonic() + timeout
         try:
-            self._write(codec.dumps({"id": rid, "op": op, **fields}), deadline)
+            message = codec.dumps({"id": rid, "op": op, **fields})
+        except codec.WireError as exc:  # a cell or an argument over the wire limit
+            raise StudentError(f"cannot be sent to the student process: {exc}") from None
+        try:
+            self._write(message, deadline)
             reply = self._read_reply(deadline)
         except SandboxError:
             self.close()
@@ -539,12 +543,10 @@ class Sandbox:
             code = self.proc.wait(timeout=2)
         except subprocess.TimeoutExpired:
             return "the student process stopped answering"
+        if code > 128:  # bwrap's init reports a child killed by signal N as 128 + N
+            code = 128 - code
         if code < 0:
-            try:
-                name = signal.Signals(-code).name
-            except ValueError:  # real-time signals have no name
-                name = f"signal {-code}"
-            return f"the student process was killed by {name}"
+            return f"the student process was killed by {_signal_name(-code)}"
         return f"the student process exited (status {code})"
 
     def close(self) -> None:
@@ -576,6 +578,13 @@ class Sandbox:
 
     def __exit__(self, *exc):
         self.close()
+
+
+def _signal_name(number: int) -> str:
+    try:
+        return signal.Signals(number).name
+    except ValueError:  # real-time signals have no name
+        return f"signal {number}"
 
 
 def _remove_cgroup(path: str) -> None:
