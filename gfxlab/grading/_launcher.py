@@ -37,8 +37,10 @@ def _check(result, what):
 
 def _mount(source, target, fstype, flags, data=None):
     as_bytes = lambda s: None if s is None else s.encode()
-    _check(_libc().mount(as_bytes(source), as_bytes(target), as_bytes(fstype), flags,
-                         as_bytes(data)), target)
+    _check(
+        _libc().mount(as_bytes(source), as_bytes(target), as_bytes(fstype), flags, as_bytes(data)),
+        target,
+    )
 
 
 def _expose(blocker, paths):

@@ -68,8 +68,12 @@ def read_notebook(path) -> dict:
 
 
 def new_cell(kind: str, source: str, metadata: dict | None = None) -> dict:
-    cell = {"cell_type": kind, "id": uuid.uuid4().hex[:8], "metadata": metadata or {},
-            "source": source}
+    cell = {
+        "cell_type": kind,
+        "id": uuid.uuid4().hex[:8],
+        "metadata": metadata or {},
+        "source": source,
+    }
     if kind == "code":
         cell.update(outputs=[], execution_count=None)
     return cell
@@ -232,8 +236,10 @@ def _split_tests(source: str, question: Question, cell_hidden: bool, weight: flo
         if hidden and not cell_hidden:
             drop.append((start - 1, node.end_lineno))
     full = source
-    public = "" if cell_hidden else "\n".join(
-        ln for i, ln in enumerate(lines) if not any(a <= i < b for a, b in drop)
+    public = (
+        ""
+        if cell_hidden
+        else "\n".join(ln for i, ln in enumerate(lines) if not any(a <= i < b for a, b in drop))
     )
     return public, full
 
@@ -279,9 +285,14 @@ def parse_notebook(notebook) -> Assignment:
             question = None
             continue
         if cell["cell_type"] == "raw":
-            for pattern, flag in ((_BEGIN_TESTS, "t+"), (_END_TESTS, "t-"),
-                                  (_BEGIN_SOL, "s+"), (_END_SOL, "s-"),
-                                  (_BEGIN_PROMPT, "p+"), (_END_PROMPT, "p-")):
+            for pattern, flag in (
+                (_BEGIN_TESTS, "t+"),
+                (_END_TESTS, "t-"),
+                (_BEGIN_SOL, "s+"),
+                (_END_SOL, "s-"),
+                (_BEGIN_PROMPT, "p+"),
+                (_END_PROMPT, "p-"),
+            ):
                 if pattern.match(first):
                     if flag[0] == "t":
                         in_tests = flag[1] == "+"
@@ -338,8 +349,7 @@ def parse_notebook(notebook) -> Assignment:
     student = new_notebook(copy.deepcopy(notebook["metadata"]))
     student["metadata"].pop("gfxlab", None)
     notice = _forbid_cell(config)
-    student["cells"] = student_cells[:1] + [notice] + student_cells[1:] if notice \
-        else student_cells
+    student["cells"] = student_cells[:1] + [notice] + student_cells[1:] if notice else student_cells
     student["metadata"]["gfxlab"] = {
         "assignment": name,
         "questions": [{"name": q.name, "points": q.points} for q in questions],
@@ -387,8 +397,11 @@ def _forbid_cell(config: dict) -> dict | None:
     if not forbid:
         return None
     names = ", ".join(f"`{m}`" for m in forbid)
-    return new_cell("markdown", f"**Not allowed in this assignment:** {names}. The grader "
-                                "makes these modules unimportable; code using them scores 0.")
+    return new_cell(
+        "markdown",
+        f"**Not allowed in this assignment:** {names}. The grader "
+        "makes these modules unimportable; code using them scores 0.",
+    )
 
 
 def student_code_cells(notebook) -> list[str]:

@@ -14,8 +14,9 @@ from .sandbox import IsolationUnavailable, detect_protections
 def _limit_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--timeout", type=float, help="wall seconds per function call")
     parser.add_argument("--memory-mb", type=int, help="address-space limit of the student")
-    parser.add_argument("--budget", type=float,
-                        help="wall seconds for one whole submission (restarts included)")
+    parser.add_argument(
+        "--budget", type=float, help="wall seconds for one whole submission (restarts included)"
+    )
 
 
 def _limits(args) -> dict:
@@ -36,15 +37,24 @@ def _assign(argv) -> int:
     )
     parser.add_argument("source", type=pathlib.Path, help="instructor notebook (.ipynb)")
     parser.add_argument("out", type=pathlib.Path, help="output directory")
-    parser.add_argument("--no-verify", action="store_true",
-                        help="skip proving the tests (reference, blank notebook, wrong answers)")
-    parser.add_argument("--gradescope", action="store_true",
-                        help="also write OUT/autograder.zip for Gradescope")
+    parser.add_argument(
+        "--no-verify",
+        action="store_true",
+        help="skip proving the tests (reference, blank notebook, wrong answers)",
+    )
+    parser.add_argument(
+        "--gradescope", action="store_true", help="also write OUT/autograder.zip for Gradescope"
+    )
     _limit_args(parser)
     args = parser.parse_args(argv)
     try:
-        result = commands.assign(args.source, args.out, verify_tests=not args.no_verify,
-                                 limits=_limits(args), gradescope=args.gradescope)
+        result = commands.assign(
+            args.source,
+            args.out,
+            verify_tests=not args.no_verify,
+            limits=_limits(args),
+            gradescope=args.gradescope,
+        )
     except (authoring.AuthoringError, FileNotFoundError) as exc:
         print(f"authoring error: {exc}", file=sys.stderr)
         return 1
@@ -53,9 +63,11 @@ def _assign(argv) -> int:
     if result.gradescope is not None:
         print(f"gradescope:       {result.gradescope}")
     if result.reference is not None:
-        print(f"reference solution: {result.reference.score:g}/{result.reference.max_score:g}; "
-              f"unsolved notebook: {result.blank.score:g}/{result.blank.max_score:g}; "
-              f"{result.mutants} generated wrong answers earn nothing")
+        print(
+            f"reference solution: {result.reference.score:g}/{result.reference.max_score:g}; "
+            f"unsolved notebook: {result.blank.score:g}/{result.blank.max_score:g}; "
+            f"{result.mutants} generated wrong answers earn nothing"
+        )
     return 0
 
 
@@ -93,15 +105,25 @@ def _grade(argv) -> int:
         description="Grade a submitted notebook, or every .ipynb in a folder in parallel.",
     )
     parser.add_argument("submission", type=pathlib.Path, help="notebook or folder of notebooks")
-    parser.add_argument("--autograder", type=pathlib.Path, required=True,
-                        help="the autograder directory written by `assign`")
-    parser.add_argument("--out", type=pathlib.Path,
-                        help="results.json path (one notebook) or output folder (a folder); "
-                             "default: ./results.json or ./grading-results/")
+    parser.add_argument(
+        "--autograder",
+        type=pathlib.Path,
+        required=True,
+        help="the autograder directory written by `assign`",
+    )
+    parser.add_argument(
+        "--out",
+        type=pathlib.Path,
+        help="results.json path (one notebook) or output folder (a folder); "
+        "default: ./results.json or ./grading-results/",
+    )
     parser.add_argument("--jobs", type=int, help="parallel graders (default: CPU cores)")
     parser.add_argument("--verbose", action="store_true", help="print per-test feedback")
-    parser.add_argument("--isolation", action="store_true",
-                        help="print which isolation layers are active here, and exit")
+    parser.add_argument(
+        "--isolation",
+        action="store_true",
+        help="print which isolation layers are active here, and exit",
+    )
     _limit_args(parser)
     args = parser.parse_args(argv)
     if not (args.autograder / "config.json").is_file():
@@ -113,17 +135,22 @@ def _grade(argv) -> int:
             print(f"error: no .ipynb files in {args.submission}", file=sys.stderr)
             return 1
         out = args.out or pathlib.Path("grading-results")
-        results = commands.grade_many(notebooks, args.autograder, out, jobs=args.jobs,
-                                      limits=_limits(args))
+        results = commands.grade_many(
+            notebooks, args.autograder, out, jobs=args.jobs, limits=_limits(args)
+        )
         for r in results:
             flag = "  GRADING ERROR" if r.error else ""
-            print(f"{r.submission[:40]!s:40s} {r.score:7.2f} / {r.max_score:g}  "
-                  f"({r.seconds:.1f} s){flag}")
+            print(
+                f"{r.submission[:40]!s:40s} {r.score:7.2f} / {r.max_score:g}  "
+                f"({r.seconds:.1f} s){flag}"
+            )
         print(f"summary: {out / 'summary.csv'}")
         errors = sum(bool(r.error) for r in results)
         if errors:
-            print(f"error: the grader failed on {errors} submission(s); see summary.csv",
-                  file=sys.stderr)
+            print(
+                f"error: the grader failed on {errors} submission(s); see summary.csv",
+                file=sys.stderr,
+            )
             return 2
         return 0
     if not args.submission.is_file():

@@ -91,7 +91,7 @@ def decode(obj, _depth=0, _budget=None):
     if kind is not dict or len(obj) not in (1, 4):
         raise WireError(f"malformed value of JSON type {kind.__name__}")
     if len(obj) == 1:
-        (tag, body), = obj.items()
+        ((tag, body),) = obj.items()
         if tag == "f" and type(body) is str:
             try:
                 return float(body)

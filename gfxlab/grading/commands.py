@@ -49,7 +49,8 @@ def check_libraries(assignment: authoring.Assignment) -> list[str]:
                 if importlib.util.find_spec(name) is None:
                     raise authoring.AuthoringError(
                         f"the tests of {q.name} import `{name}`, which the grading environment "
-                        "lacks: install it (a test must never pass for want of a library)")
+                        "lacks: install it (a test must never pass for want of a library)"
+                    )
                 needed.add(name)
     return sorted(needed)
 
@@ -63,15 +64,23 @@ def write_autograder(assignment: authoring.Assignment, directory) -> pathlib.Pat
     questions = []
     for q in assignment.questions:
         (directory / "tests" / f"{q.name}.py").write_text("\n\n".join(q.full_source) + "\n")
-        questions.append({
-            "name": q.name,
-            "points": q.points,
-            "tests": [dataclasses.asdict(t) for t in q.tests],
-        })
-    options = {k: v for k, v in assignment.config.items()
-               if k in ("preload", "x64", "limits", "forbid")}
-    config = {"format": FORMAT, "assignment": assignment.name, "questions": questions,
-              "test_imports": check_libraries(assignment), **options}
+        questions.append(
+            {
+                "name": q.name,
+                "points": q.points,
+                "tests": [dataclasses.asdict(t) for t in q.tests],
+            }
+        )
+    options = {
+        k: v for k, v in assignment.config.items() if k in ("preload", "x64", "limits", "forbid")
+    }
+    config = {
+        "format": FORMAT,
+        "assignment": assignment.name,
+        "questions": questions,
+        "test_imports": check_libraries(assignment),
+        **options,
+    }
     (directory / "config.json").write_text(json.dumps(config, indent=1) + "\n")
     (directory / "solution.json").write_text(json.dumps(assignment.solution_cells, indent=1))
     for root, _dirs, files in os.walk(directory):
@@ -91,8 +100,9 @@ class AssignResult:
     gradescope: pathlib.Path | None = None
 
 
-def prove_tests(grader: Autograder, assignment: authoring.Assignment, limits=None, *,
-                fail_fast=False):
+def prove_tests(
+    grader: Autograder, assignment: authoring.Assignment, limits=None, *, fail_fast=False
+):
     """Reference passes everything; blank notebook and wrong answers earn nothing.
 
     The reference and the wrong answers (`gfxlab.grading.mutants`) share one sandboxed
@@ -101,27 +111,38 @@ def prove_tests(grader: Autograder, assignment: authoring.Assignment, limits=Non
     with `fail_fast`).
     """
     plan, cell = mutants.plan(grader.questions, grader.solution_cells())
-    reference, weak = mutants.grade_reference_and_mutants(grader, plan, cell, limits,
-                                                          fail_fast=fail_fast)
-    failures = [f"{q.name}.{t.name}: {t.message or 'failed'}"
-                for q in reference.questions for t in q.tests if not t.passed]
+    reference, weak = mutants.grade_reference_and_mutants(
+        grader, plan, cell, limits, fail_fast=fail_fast
+    )
+    failures = [
+        f"{q.name}.{t.name}: {t.message or 'failed'}"
+        for q in reference.questions
+        for t in q.tests
+        if not t.passed
+    ]
     if failures:
         detail = "\n".join(failures + reference.notes)
         raise authoring.AuthoringError(f"tests fail on the reference solution:\n{detail}")
     if not (weak and fail_fast):
-        blank = grader.grade_cells(authoring.student_code_cells(assignment.student),
-                                   label="blank", limits=limits)
-        weak = [f"{q.name}: the unsolved notebook passes {t.name}"
-                for q in blank.questions for t in q.tests if t.passed] + weak
+        blank = grader.grade_cells(
+            authoring.student_code_cells(assignment.student), label="blank", limits=limits
+        )
+        weak = [
+            f"{q.name}: the unsolved notebook passes {t.name}"
+            for q in blank.questions
+            for t in q.tests
+            if t.passed
+        ] + weak
     if weak:
         raise authoring.AuthoringError(
-            "tests too weak: wrong answers earn marks (strengthen these tests):\n"
-            + "\n".join(weak))
+            "tests too weak: wrong answers earn marks (strengthen these tests):\n" + "\n".join(weak)
+        )
     return reference, blank, len(plan)
 
 
-def assign(source, out, *, verify_tests=True, limits=None, gradescope=False, fail_fast=False,
-           verify=None) -> AssignResult:
+def assign(
+    source, out, *, verify_tests=True, limits=None, gradescope=False, fail_fast=False, verify=None
+) -> AssignResult:
     """Split an instructor notebook into `out/student/NAME.ipynb` and `out/autograder/`.
 
     With `verify_tests` (default), the reference solution must pass every test (public
@@ -142,8 +163,9 @@ def assign(source, out, *, verify_tests=True, limits=None, gradescope=False, fai
     result = AssignResult(student_path, grader_dir, None, None)
     if verify_tests:
         grader = Autograder(grader_dir)
-        result.reference, result.blank, result.mutants = prove_tests(grader, assignment, limits,
-                                                                    fail_fast=fail_fast)
+        result.reference, result.blank, result.mutants = prove_tests(
+            grader, assignment, limits, fail_fast=fail_fast
+        )
     if gradescope:
         from .gradescope import write_zip
 
@@ -166,9 +188,12 @@ def check(notebook, *, limits=None) -> GradeResult:
     tests = authoring.public_test_cells(nb)
     grader = Autograder.__new__(Autograder)
     grader.directory = path.parent
-    grader.config = {"assignment": str(meta.get("assignment", path.stem)),
-                     "preload": meta.get("preload", ["numpy"]),
-                     "forbid": meta.get("forbid", []), "questions": []}
+    grader.config = {
+        "assignment": str(meta.get("assignment", path.stem)),
+        "preload": meta.get("preload", ["numpy"]),
+        "forbid": meta.get("forbid", []),
+        "questions": [],
+    }
     grader.questions, grader._namespaces = [], {}
     prot = require_confinement()
     session = grader.session(cells + [_CHECK_HELPER], limits)
@@ -182,20 +207,37 @@ def check(notebook, *, limits=None) -> GradeResult:
             if name in tests:
                 try:
                     raw = session.sandbox.request(
-                        "call", session._timeout(session.limits.exec_timeout),
-                        name="_gfxlab_check", transforms=[], args=_encode([tests[name], name]),
-                        kwargs=_encode({}))
+                        "call",
+                        session._timeout(session.limits.exec_timeout),
+                        name="_gfxlab_check",
+                        transforms=[],
+                        args=_encode([tests[name], name]),
+                        kwargs=_encode({}),
+                    )
                 except Exception as exc:
                     raw = [["(public tests)", False, _bounded(str(exc), 500)]]
                 for item in raw if isinstance(raw, list) else []:
                     if isinstance(item, (list, tuple)) and len(item) == 3:
-                        results.append(TestResult(_bounded(item[0], 100), False,
-                                                  item[1] is True, 1.0, _bounded(item[2], 1000)))
+                        results.append(
+                            TestResult(
+                                _bounded(item[0], 100),
+                                False,
+                                item[1] is True,
+                                1.0,
+                                _bounded(item[2], 1000),
+                            )
+                        )
             questions.append(QuestionResult(_bounded(name, 100), points, results))
     finally:
         session.close()
-    return GradeResult(_bounded(path.name, 200), questions, session.notes, prot.describe(), 0.0,
-                       session.infrastructure_error)
+    return GradeResult(
+        _bounded(path.name, 200),
+        questions,
+        session.notes,
+        prot.describe(),
+        0.0,
+        session.infrastructure_error,
+    )
 
 
 def _encode(value):
@@ -204,7 +246,7 @@ def _encode(value):
     return encode(value)
 
 
-_CHECK_HELPER = '''
+_CHECK_HELPER = """
 def _gfxlab_check(source, question):
     import gfxlab.grading.checks as _checks
     import numpy as np
@@ -214,7 +256,7 @@ def _gfxlab_check(source, question):
     names = [n for n in namespace if n.startswith("test") and callable(namespace[n])]
     results = _checks.run_tests(namespace, names, echo=False)
     return [[str(n), bool(p), str(m)[:1000]] for n, p, m in results]
-'''
+"""
 
 
 def _grade_one(args):
@@ -277,8 +319,9 @@ def _run_pool(tasks, jobs):
                 try:
                     results[i] = pool.submit(_grade_one, task).result()
                 except Exception as exc:
-                    results[i] = GradeResult(task[2], [], [], [], 0.0,
-                                             f"grader error: {exc!r}"[:2000])
+                    results[i] = GradeResult(
+                        task[2], [], [], [], 0.0, f"grader error: {exc!r}"[:2000]
+                    )
     return results
 
 
@@ -295,26 +338,36 @@ def grade_many(submissions, autograder_dir, out_dir, *, jobs=None, limits=None):
     require_confinement()
     grader = Autograder(directory)
     labels = [_bounded(pathlib.Path(s).name, 200) for s in submissions]
-    results = _run_pool([(directory, s, lb, limits) for s, lb in zip(submissions, labels,
-                                                                     strict=True)], jobs)
+    results = _run_pool(
+        [(directory, s, lb, limits) for s, lb in zip(submissions, labels, strict=True)], jobs
+    )
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     names = [q.name for q in grader.questions]
     maximum = sum(q.points for q in grader.questions)
     with open(out_dir / "summary.csv", "w", newline="") as f:
         writer = csv.writer(f)
-        writer.writerow(["submission", "folder", *names, "total", "max", "seconds",
-                         "grading_error", "notes"])
+        writer.writerow(
+            ["submission", "folder", *names, "total", "max", "seconds", "grading_error", "notes"]
+        )
         for folder, result in zip(safe_names(submissions), results, strict=True):
             (out_dir / folder).mkdir(exist_ok=True)
             (out_dir / folder / "results.json").write_text(
-                json.dumps(result.to_gradescope(), indent=1))
+                json.dumps(result.to_gradescope(), indent=1)
+            )
             scores = {q.name: f"{q.score:.2f}" for q in result.questions}
-            writer.writerow([
-                csv_cell(result.submission), folder, *[scores.get(n, "0.00") for n in names],
-                f"{result.score:.2f}", f"{maximum:g}", f"{result.seconds:.2f}",
-                csv_cell(result.error or ""), csv_cell(" | ".join(result.notes)),
-            ])
+            writer.writerow(
+                [
+                    csv_cell(result.submission),
+                    folder,
+                    *[scores.get(n, "0.00") for n in names],
+                    f"{result.score:.2f}",
+                    f"{maximum:g}",
+                    f"{result.seconds:.2f}",
+                    csv_cell(result.error or ""),
+                    csv_cell(" | ".join(result.notes)),
+                ]
+            )
     return results
 
 

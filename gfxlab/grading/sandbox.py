@@ -111,8 +111,11 @@ class Protections:
         """One line per layer."""
         if not self.confined:
             return [f"sandbox unavailable: {self.problem}"]
-        who = ("a fresh unprivileged uid (grader is root)" if self.drop_privileges
-               else "the grader's uid through an unprivileged user namespace")
+        who = (
+            "a fresh unprivileged uid (grader is root)"
+            if self.drop_privileges
+            else "the grader's uid through an unprivileged user namespace"
+        )
         return [
             f"bubblewrap sandbox ({self.bwrap}): allow-list filesystem (Python, packages, "
             "gfxlab read-only; private /tmp, /dev/shm), new user, mount, pid, ipc, net, "
@@ -133,8 +136,12 @@ def _closed_to_others(path: pathlib.Path) -> pathlib.Path | None:
 
 def _runtime_paths() -> list[pathlib.Path]:
     """The Python installation and the environment (venv) the worker runs in."""
-    return sorted({pathlib.Path(os.path.realpath(sys.base_prefix)),
-                   pathlib.Path(os.path.realpath(sys.prefix))})
+    return sorted(
+        {
+            pathlib.Path(os.path.realpath(sys.base_prefix)),
+            pathlib.Path(os.path.realpath(sys.prefix)),
+        }
+    )
 
 
 def _package_inside() -> bool:
@@ -162,8 +169,11 @@ def _cgroup_parent() -> str | None:
     root = pathlib.Path("/sys/fs/cgroup")
     try:
         controllers = (root / "cgroup.controllers").read_text().split()
-        line = next(ln for ln in pathlib.Path("/proc/self/cgroup").read_text().splitlines()
-                    if ln.startswith("0::"))
+        line = next(
+            ln
+            for ln in pathlib.Path("/proc/self/cgroup").read_text().splitlines()
+            if ln.startswith("0::")
+        )
     except (OSError, StopIteration):
         return None
     if not {"memory", "pids", "cpu"} <= set(controllers):
@@ -208,8 +218,9 @@ def detect_protections() -> Protections:
     prot = Protections(bwrap, root, expose, _cgroup_parent())
     error = _probe(prot)
     if error:
-        return dataclasses.replace(prot, problem=f"the sandbox does not start here ({error}); "
-                                                 f"to grade, {_ENABLE}")
+        return dataclasses.replace(
+            prot, problem=f"the sandbox does not start here ({error}); to grade, {_ENABLE}"
+        )
     return prot
 
 
@@ -330,9 +341,15 @@ class Sandbox:
       submodules): inside the sandbox they are stubs raising `ImportError`.
     """
 
-    def __init__(self, limits: Limits = Limits(), *, preload: tuple[str, ...] = ("numpy",),
-                 x64: bool = True, forbid: tuple[str, ...] = (),
-                 protections: Protections | None = None):
+    def __init__(
+        self,
+        limits: Limits = Limits(),
+        *,
+        preload: tuple[str, ...] = ("numpy",),
+        x64: bool = True,
+        forbid: tuple[str, ...] = (),
+        protections: Protections | None = None,
+    ):
         self.limits = limits
         self.protections = protections or detect_protections()
         self.preload = tuple(preload)
@@ -361,7 +378,7 @@ class Sandbox:
             return args
         stubs = pathlib.Path(self.workdir, "stubs")
         stubs.mkdir(mode=0o755)
-        text = (f"raise ImportError({'this module is not allowed in this assignment'!r})\n")
+        text = f"raise ImportError({'this module is not allowed in this assignment'!r})\n"
         (stubs / "stub.py").write_text(text)
         (stubs / "pkg").mkdir(mode=0o755)
         (stubs / "pkg" / "__init__.py").write_text(text)
@@ -377,9 +394,22 @@ class Sandbox:
     def _bwrap_argv(self, req_fd: int, rep_fd: int) -> list[str]:
         prot = self.protections
         tmp = str(int(self.limits.tmp_mb) * 2**20)
-        args = [prot.bwrap, "--unshare-all", "--unshare-user", "--disable-userns",
-                "--uid", "1000", "--gid", "1000", "--hostname", "sandbox",
-                "--die-with-parent", "--new-session", "--clearenv", *_system_binds()]
+        args = [
+            prot.bwrap,
+            "--unshare-all",
+            "--unshare-user",
+            "--disable-userns",
+            "--uid",
+            "1000",
+            "--gid",
+            "1000",
+            "--hostname",
+            "sandbox",
+            "--die-with-parent",
+            "--new-session",
+            "--clearenv",
+            *_system_binds(),
+        ]
         for path in _runtime_paths():
             args += ["--ro-bind", str(path), str(path)]
         python = _python()
@@ -388,14 +418,40 @@ class Sandbox:
         if not _package_inside():
             args += ["--ro-bind", str(_PACKAGE), f"{_PACKAGE_TARGET}/gfxlab"]
         args += self._forbid_args()
-        args += ["--proc", "/proc", "--dev", "/dev", "--size", tmp, "--tmpfs", "/dev/shm",
-                 "--size", tmp, "--tmpfs", "/tmp", "--remount-ro", "/dev", "--remount-ro", "/",
-                 "--chdir", "/tmp"]
+        args += [
+            "--proc",
+            "/proc",
+            "--dev",
+            "/dev",
+            "--size",
+            tmp,
+            "--tmpfs",
+            "/dev/shm",
+            "--size",
+            tmp,
+            "--tmpfs",
+            "/tmp",
+            "--remount-ro",
+            "/dev",
+            "--remount-ro",
+            "/",
+            "--chdir",
+            "/tmp",
+        ]
         for key, value in _minimal_env(self.x64).items():
             args += ["--setenv", key, value]
         worker_src = _source("codec.py") + "\n" + _source("_worker.py")
-        args += [python, "-I", "-c", worker_src, str(req_fd), str(rep_fd),
-                 ",".join(self.preload), ",".join(self.forbid), _PACKAGE_TARGET]
+        args += [
+            python,
+            "-I",
+            "-c",
+            worker_src,
+            str(req_fd),
+            str(rep_fd),
+            ",".join(self.preload),
+            ",".join(self.forbid),
+            _PACKAGE_TARGET,
+        ]
         return args
 
     def _make_cgroup(self) -> None:
@@ -406,8 +462,9 @@ class Sandbox:
         try:
             path.mkdir()
             (path / "memory.max").write_text(str(int(self.limits.memory_mb) * 2**20))
-            (path / "memory.swap.max").write_text("0") if (path / "memory.swap.max").exists() \
-                else None
+            (path / "memory.swap.max").write_text("0") if (
+                path / "memory.swap.max"
+            ).exists() else None
             (path / "pids.max").write_text(str(int(self.limits.processes)))
             (path / "cpu.max").write_text("100000 100000")  # one core
             if self.uid is not None:
@@ -439,8 +496,13 @@ class Sandbox:
         cmd = [sys.executable, "-I", "-S", "-c", _source("_launcher.py"), json.dumps(config)]
         try:
             self.proc = subprocess.Popen(
-                cmd, stdin=subprocess.DEVNULL, stdout=output, stderr=subprocess.STDOUT,
-                pass_fds=(req_r, rep_w), close_fds=True, start_new_session=True,
+                cmd,
+                stdin=subprocess.DEVNULL,
+                stdout=output,
+                stderr=subprocess.STDOUT,
+                pass_fds=(req_r, rep_w),
+                close_fds=True,
+                start_new_session=True,
                 env={"PATH": "/usr/bin:/bin", "LANG": "C.UTF-8"},
             )
         finally:

@@ -440,8 +440,14 @@ def write_notebook(cells, path):
     """A minimal nbformat-4 notebook holding `cells` as code cells."""
     nb = {
         "cells": [
-            {"cell_type": "code", "id": f"c{i}", "metadata": {}, "source": src,
-             "outputs": [], "execution_count": None}
+            {
+                "cell_type": "code",
+                "id": f"c{i}",
+                "metadata": {},
+                "source": src,
+                "outputs": [],
+                "execution_count": None,
+            }
             for i, src in enumerate(cells)
         ],
         "metadata": {},
