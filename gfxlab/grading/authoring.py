@@ -348,8 +348,8 @@ def parse_notebook(notebook) -> Assignment:
             raise AuthoringError(f"question {q.name} has no tests")
     student = new_notebook(copy.deepcopy(notebook["metadata"]))
     student["metadata"].pop("gfxlab", None)
-    notice = _forbid_cell(config)
-    student["cells"] = student_cells[:1] + [notice] + student_cells[1:] if notice else student_cells
+    extra = [c for c in (_forbid_cell(config), _x64_cell(config)) if c is not None]
+    student["cells"] = student_cells[:1] + extra + student_cells[1:]
     student["metadata"]["gfxlab"] = {
         "assignment": name,
         "questions": [{"name": q.name, "points": q.points} for q in questions],
@@ -390,6 +390,17 @@ def public_test_cells(notebook) -> dict[str, str]:
             lines = [ln for ln in cell["source"].splitlines() if not ln.startswith(_RUN_LINE)]
             out[name] = "\n".join(lines)
     return out
+
+
+def _x64_cell(config: dict) -> dict | None:
+    """JAX assignments: the notebook computes in float64, as the grader does."""
+    if "jax" not in config.get("preload", []) or not config.get("x64", True):
+        return None
+    source = (
+        "# The grader runs JAX in float64; so does this notebook.\n"
+        'import jax\n\njax.config.update("jax_enable_x64", True)'
+    )
+    return new_cell("code", source, {"gfxlab": {"setup": True}})
 
 
 def _forbid_cell(config: dict) -> dict | None:

@@ -156,7 +156,13 @@ def _grade(argv) -> int:
     if not args.submission.is_file():
         print(f"error: {args.submission} not found", file=sys.stderr)
         return 1
-    result = grader.Autograder(args.autograder).grade(args.submission, limits=_limits(args))
+    autograder = grader.Autograder(args.autograder)
+    try:
+        result = autograder.grade(args.submission, limits=_limits(args))
+    except IsolationUnavailable:
+        raise
+    except Exception as exc:  # the grader broke: still a bounded results file, exit code 2
+        result = autograder.empty_result(args.submission.name, "", f"grader error: {exc!r}")
     out = args.out or pathlib.Path("results.json")
     out.write_text(json.dumps(result.to_gradescope(), indent=1))
     print(result.table())
