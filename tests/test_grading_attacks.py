@@ -14,6 +14,7 @@ import csv
 import json
 import os
 import pathlib
+import re
 import socket
 import subprocess
 import sys
@@ -21,7 +22,13 @@ import threading
 import time
 
 import pytest
-from grading_attacks.attacks import BUDGET, HONEST_Q1, submission_cells, write_notebook
+from grading_attacks.attacks import (
+    BUDGET,
+    HONEST_Q1,
+    LEAK_ONLY,
+    submission_cells,
+    write_notebook,
+)
 
 from gfxlab.grading import assign
 
@@ -190,7 +197,7 @@ def _scores(report):
     return {t["name"]: t["score"] for t in report["tests"]}
 
 
-def _check_attack(name, report, hidden_names):
+def _check_attack(name, report, hidden_names, seconds):
     text = json.dumps(report)
     scores = _scores(report)
     assert not report["extra_data"]["grading_error"], (name, report["output"])
@@ -205,12 +212,15 @@ def _check_attack(name, report, hidden_names):
             name,
             report["output"],
         )
-        assert report["execution_time"] < LIMITS["budget_seconds"] + 10, name
+        assert seconds < LIMITS["budget_seconds"] + 10, name
         assert report["score"] < 15, name
         return
     assert scores["q1"] == 0, (name, report["tests"][0]["output"])
+    assert "status 10" not in text and not re.search(r"\bR\d+\b", text), name
+    if name in LEAK_ONLY:
+        return
     assert scores["q2"] == 5 and scores["q3"] == 5, (name, report)
-    assert report["execution_time"] < 40, name
+    assert seconds < 40, name
 
 
 def _host_is_clean():
@@ -243,8 +253,9 @@ def test_every_attack_scores_only_its_honest_part(graded):
     results, summary = _load(graded["out"])
     config = json.loads((graded["autograder"] / "config.json").read_text())
     hidden = [t["name"] for q in config["questions"] for t in q["tests"] if t["hidden"]]
+    seconds = {r["folder"]: float(r["seconds"]) for r in summary}
     for name in graded["names"]:
-        _check_attack(name, results[name], hidden)
+        _check_attack(name, results[name], hidden, seconds[name])
     assert graded["hits"] == [], "a submission reached the network"
     _host_is_clean()
     feedback = {n: results[n]["tests"][0]["output"] for n in graded["names"]}
@@ -314,11 +325,12 @@ def test_attacks_as_an_unprivileged_user(graded_unprivileged):
     """Grading as a non-root user: the same sandbox through unprivileged user namespaces."""
     run = graded_unprivileged["run"]
     assert run.returncode == 0, run.stderr[-3000:]
-    results, _ = _load(graded_unprivileged["out"])
+    results, summary = _load(graded_unprivileged["out"])
+    seconds = {r["folder"]: float(r["seconds"]) for r in summary}
     config = json.loads((graded_unprivileged["autograder"] / "config.json").read_text())
     hidden = [t["name"] for q in config["questions"] for t in q["tests"] if t["hidden"]]
     for name in UNPRIVILEGED:
-        _check_attack(name, results[name], hidden)
+        _check_attack(name, results[name], hidden, seconds[name])
         isolation = " ".join(results[name]["extra_data"]["isolation"])
         assert "unprivileged user namespace" in isolation
     assert graded_unprivileged["hits"] == []

@@ -202,7 +202,10 @@ def check(notebook, *, limits=None) -> GradeResult:
         session.start()
         for q in meta["questions"][:100]:
             name = str(q.get("name", "")) if isinstance(q, dict) else ""
-            points = float(q.get("points", 0)) if isinstance(q, dict) else 0.0
+            try:
+                points = float(q.get("points", 0)) if isinstance(q, dict) else 0.0
+            except (TypeError, ValueError):
+                points = 0.0
             results = []
             if name in tests:
                 try:

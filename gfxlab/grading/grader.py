@@ -51,7 +51,14 @@ MAX_NOTEBOOK_BYTES = 16 * 2**20
 
 
 class StudentCallError(AssertionError):
-    """A call to a student function failed (raised, timed out, crashed, bad value)."""
+    """A call to a student function failed (raised, timed out, crashed, bad value).
+
+    `generic`: what a hidden test may show instead of the message, if it differs.
+    """
+
+    def __init__(self, message: str, generic: str | None = None):
+        super().__init__(message)
+        self.generic = None if generic is None else message.split(" failed: ")[0] + " " + generic
 
 
 def _plain_arg(value):
@@ -234,10 +241,13 @@ class StudentSession:
             if time.monotonic() >= self.deadline:
                 self._timeout(0)
             reason = f"it timed out after {timeout:g} s"
+            self.stopped[name] = reason
+            raise StudentCallError(f"{label} failed: {reason}") from None
         except (Crash, ProtocolError) as exc:
-            reason = str(exc)
-        self.stopped[name] = reason
-        raise StudentCallError(f"{label} failed: {reason}")
+            # The details (exit status, signal) are the student's to choose: kept out of
+            # anything shown later, where they could carry a hidden input.
+            self.stopped[name] = "it crashed the student process before"
+            raise StudentCallError(f"{label} failed: {exc}", generic="crashed") from None
 
     def close(self):
         self.sandbox.close()
@@ -249,7 +259,10 @@ class StudentRaised(StudentCallError):
     def __init__(self, label: str, error: str):
         super().__init__(f"{label} raised {error}")
         kind = error.split(":", 1)[0].split("\n", 1)[0].strip()
-        self.short = f"{label} raised {kind if kind.isidentifier() else 'an exception'}"
+        builtin = isinstance(getattr(builtins, kind, None), type) and issubclass(
+            getattr(builtins, kind), BaseException
+        )  # a class name of the student's choosing could spell out a hidden input
+        self.short = f"{label} raised {kind if builtin else 'an exception'}"
 
 
 @dataclasses.dataclass
@@ -330,7 +343,6 @@ class GradeResult:
             )
         return {
             "score": round(self.score, 4),
-            "execution_time": round(self.seconds, 3),
             "output": notes or "Graded by gfxlab.grading.",
             "visibility": "visible",
             "stdout_visibility": "hidden",
@@ -375,8 +387,8 @@ def _failure_message(exc: BaseException, hidden: bool) -> str:
     if hidden:
         if isinstance(exc, StudentRaised):
             return exc.short
-        if isinstance(exc, StudentCallError):
-            return str(exc)[:300]  # timeouts, crashes, budget: no test data in these
+        if isinstance(exc, StudentCallError):  # timeouts, budget: fixed texts
+            return exc.generic or str(exc)[:300]
         if isinstance(exc, Feedback):
             return "wrong type, shape or dtype of the result"
         return "wrong result" if isinstance(exc, AssertionError) else "error in the test"
@@ -438,12 +450,11 @@ class Autograder:
         )
 
     def grade_cells(
-        self, cells, *, label="submission", limits=None, public_only=False, mutants=None
+        self, cells, *, label="submission", limits=None, public_only=False
     ) -> GradeResult:
         """Grade a list of code-cell sources (the student's code) in the sandbox.
 
-        `mutants` (used by `assign`) maps a question name to `{function: replacement}`:
-        that question's tests receive the replacement functions instead.
+        All public tests run before any hidden test.
         """
         prot = require_confinement()
         started = time.perf_counter()
@@ -454,9 +465,19 @@ class Autograder:
                 session.start()
             except StudentCallError as exc:  # cannot start at all: every test fails, we go on
                 session._note(str(exc))
-            for question in self.questions:
-                rename = (mutants or {}).get(question.name, {})
-                results.append(self._grade_question(question, session, public_only, rename))
+            # Every public test before any hidden one: a public test's feedback shows what
+            # the student's code returns or raises, which must not carry hidden inputs kept
+            # from an earlier hidden call in the same process.
+            public = [self._grade_question(q, session, "public") for q in self.questions]
+            hidden = [
+                self._grade_question(q, session, "hidden")
+                for q in self.questions
+                if not public_only
+            ]
+            for i, q in enumerate(self.questions):
+                done = {t.name: t for t in public[i].tests + (hidden[i].tests if hidden else [])}
+                tests = [done[t.name] for t in q.tests if t.name in done]
+                results.append(QuestionResult(q.name, q.points, tests))
         finally:
             session.close()
         return GradeResult(
@@ -468,10 +489,11 @@ class Autograder:
             session.infrastructure_error,
         )
 
-    def _grade_question(self, question, session, public_only, rename=None) -> QuestionResult:
+    def _grade_question(self, question, session, which="all", rename=None) -> QuestionResult:
+        """Run a question's tests (`which`: "all", "public" or "hidden")."""
         namespace = self._namespaces[question.name]
         rename = rename or {}
-        tests = [t for t in question.tests if not (public_only and t.hidden)]
+        tests = [t for t in question.tests if which == "all" or t.hidden == (which == "hidden")]
         names = [rename.get(f, f) for f in question.functions]
         present = (
             dict(zip(question.functions, session.defined(names).values(), strict=True))

@@ -127,7 +127,7 @@ def grade_reference_and_mutants(grader, mutants, cell, limits=None, *, fail_fast
             session.start()
         except Exception as exc:
             session._note(str(exc))
-        questions = [grader._grade_question(q, session, False) for q in grader.questions]
+        questions = [grader._grade_question(q, session) for q in grader.questions]
         reference = GradeResult(
             "reference",
             questions,
@@ -147,7 +147,7 @@ def grade_reference_and_mutants(grader, mutants, cell, limits=None, *, fail_fast
             q = by_name[m.question]
             tests = [t for t in q.tests if m.tests is None or t.name in m.tests]
             sub = authoring.Question(q.name, q.points, tests)
-            result = grader._grade_question(sub, session, False, {m.function: m.name})
+            result = grader._grade_question(sub, session, "all", {m.function: m.name})
             passed = [t.name for t in result.tests if t.passed]
             if passed:
                 weak.append(f"{m.question}: `{m.function}` {m.kind} passes {', '.join(passed)}")

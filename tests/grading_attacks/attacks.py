@@ -405,6 +405,36 @@ time.sleep(1.5)
 def midpoint_circle_trace(r):
     os._exit(3)
 """,
+    # Keep hidden inputs seen by q1 and show them through q2's public feedback later.
+    "leak_via_public": """
+SEEN = []
+
+
+def _leaky_octant(r):
+    hidden = [x for x in SEEN if x not in (10, 3)]
+    if hidden:
+        raise ValueError(f"LEAKED-ARGUMENT {{hidden}}")
+    raise ValueError("nothing hidden seen yet")
+
+
+def midpoint_circle_trace(r):
+    SEEN.append(r)
+    globals()["midpoint_circle_octant"] = _leaky_octant
+    globals()["circle_points"] = lambda xc, yc, r: _leaky_octant(r)
+    return None
+""",
+    # Spell hidden inputs in an exception class name and in the exit status.
+    "leak_exit_status": """
+import os
+
+
+def midpoint_circle_trace(r):
+    if r == 2:
+        os._exit(100 + r)
+    if r not in (10, 3):
+        raise type(f"R{{r}}", (Exception,), {{}})("x")
+    return None
+""",
     # A top-level endless loop in its own cell, before the functions.
     "toplevel_loop": """
 while True:
@@ -418,6 +448,8 @@ TOPLEVEL = {"toplevel_loop"}
 HONEST_Q1 = {"ipc_1_writer"}
 # Attacks bounded by the submission's time budget: q2 and q3 may lose their marks too.
 BUDGET = {"slow_calls"}
+# Attacks that break their own q2/q3 to leak through them: only q1 and leaks are checked.
+LEAK_ONLY = {"leak_via_public"}
 
 
 def submission_cells(reference_cells, attack, **context):
