@@ -125,6 +125,9 @@ def _special_submissions(folder, autograder):
     odd.write_text(json.dumps(nb))
     (folder / "huge.ipynb").write_text('{"cells": [], "x": "' + "A" * (20 * 2**20) + '"}')
     (folder / "garbage.ipynb").write_bytes(b"\x00\xff{not json")
+    write_notebook(reference, folder / os.fsdecode(b"bad-\xff-name\n.ipynb"))
+    os.mkfifo(folder / "fifo.ipynb")  # would block a reader forever
+    os.symlink("/etc/passwd", folder / "link.ipynb")
 
 
 def _run_cli(folder, autograder, out, *, uid=None, timeout=240, work=None):
@@ -284,7 +287,10 @@ def test_file_names_metadata_and_size(graded):
     ]
     assert (out / "summary.csv").is_file()
     rows = {r["submission"]: r for r in summary}
-    assert len(rows) == len(graded["names"]) + 6
+    assert len(rows) == len(graded["names"]) + 9
+    assert float(rows["bad- -name .ipynb"]["total"]) == 15
+    for name in ("fifo.ipynb", "link.ipynb"):
+        assert float(rows[name]["total"]) == 0 and "not a regular file" in rows[name]["notes"]
     assert "'=HYPERLINK(1)&cmd.ipynb" in rows
     assert all(not r["submission"].startswith(("=", "+", "-", "@")) for r in summary)
     for label in (

@@ -335,7 +335,7 @@ def grade_many(submissions, autograder_dir, out_dir, *, jobs=None, limits=None):
     returns the `GradeResult`s in input order. A submission the grader fails on gets a
     results file with `grading_error` set (see `GradeResult.error`).
     """
-    submissions = [str(pathlib.Path(s).resolve()) for s in submissions]
+    submissions = [os.path.abspath(s) for s in submissions]  # links are not followed
     jobs = jobs or os.cpu_count() or 1
     directory = str(pathlib.Path(autograder_dir).resolve())
     require_confinement()

@@ -17,7 +17,9 @@ import dataclasses
 import importlib
 import io
 import json
+import os
 import pathlib
+import stat
 import time
 import traceback
 
@@ -541,7 +543,10 @@ class Autograder:
         path = pathlib.Path(submission)
         label = _bounded(path.name, 200)
         try:
-            size = path.stat().st_size
+            info = os.lstat(path)
+            if not stat.S_ISREG(info.st_mode):  # a FIFO would block, a link could point anywhere
+                raise ValueError("not a regular file")
+            size = info.st_size
             if size > MAX_NOTEBOOK_BYTES:
                 raise ValueError(
                     f"the notebook is too large ({size / 2**20:.0f} MB; at most "
