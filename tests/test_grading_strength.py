@@ -173,8 +173,11 @@ def test_check_runs_the_notebook_tests_in_the_sandbox(student_notebooks, tmp_pat
     code = [c for c in nb["cells"] if c["cell_type"] == "code" and c not in tests]
     for cell, source in zip(code, solution, strict=True):
         cell["source"] = source
+    # Module names in the metadata are the student's: never imported by the grader.
+    nb["metadata"]["gfxlab"].update(forbid=["antigravity.x", "a,b"], preload=["numpy", 5])
     write_notebook(nb, tmp_path / "nb.ipynb")
     result = check(tmp_path / "nb.ipynb")
+    assert "antigravity" not in sys.modules
     assert not marker.exists() and not os.path.exists("/tmp/gfxlab-check-harm")
     assert result.error is None
     # The harmful test cell failed to load in the sandbox; the others pass.

@@ -190,8 +190,8 @@ def check(notebook, *, limits=None) -> GradeResult:
     grader.directory = path.parent
     grader.config = {
         "assignment": str(meta.get("assignment", path.stem)),
-        "preload": meta.get("preload", ["numpy"]),
-        "forbid": meta.get("forbid", []),
+        "preload": _module_names(meta.get("preload", ["numpy"]))[:10],
+        "forbid": _module_names(meta.get("forbid", []))[:50],
         "questions": [],
     }
     grader.questions, grader._namespaces = [], {}
@@ -241,6 +241,13 @@ def check(notebook, *, limits=None) -> GradeResult:
         0.0,
         session.infrastructure_error,
     )
+
+
+def _module_names(value) -> list[str]:
+    """Dotted module names only (the notebook's metadata is the student's to edit)."""
+    if not isinstance(value, list):
+        return []
+    return [m for m in value if isinstance(m, str) and all(p.isidentifier() for p in m.split("."))]
 
 
 def _encode(value):

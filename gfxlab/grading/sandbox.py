@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import importlib.util
+import importlib.machinery
 import json
 import os
 import pathlib
@@ -305,6 +305,28 @@ def sandbox_path(path: str) -> str:
     return str(real)
 
 
+def _locate(name: str):
+    """The spec of a module found on the path, importing nothing (not even its parents).
+
+    `check` reads module names from a student's notebook: importing them in the grader
+    would run code of the student's choosing.
+    """
+    parts = name.split(".")
+    if not all(p.isidentifier() for p in parts):
+        return None
+    path = [str(_PACKAGE.parent)] if parts[0] == "gfxlab" else sys.path
+    spec = None
+    for i in range(len(parts)):
+        try:
+            spec = importlib.machinery.PathFinder.find_spec(".".join(parts[: i + 1]), path)
+        except (ImportError, ValueError, OSError):
+            return None
+        if spec is None:
+            return None
+        path = list(spec.submodule_search_locations or [])
+    return spec
+
+
 def forbidden_files(modules) -> list[tuple[str, bool]]:
     """Host files to replace for each forbidden module: (path, is a package directory).
 
@@ -312,10 +334,7 @@ def forbidden_files(modules) -> list[tuple[str, bool]]:
     """
     out = []
     for module in modules:
-        try:
-            spec = importlib.util.find_spec(module)
-        except (ImportError, ValueError):
-            spec = None
+        spec = _locate(str(module))
         if spec is None or not spec.origin or not os.path.exists(spec.origin):
             continue
         if spec.submodule_search_locations:
