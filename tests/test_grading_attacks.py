@@ -264,6 +264,9 @@ def test_every_attack_scores_only_its_honest_part(graded):
     feedback = {n: results[n]["tests"][0]["output"] for n in graded["names"]}
     assert "timed out after 2 s" in feedback["cpu_loop"]
     assert "cannot be returned" in feedback["eq_always_true"]
+    assert "more than 1024 MB of memory (all its processes together)" in json.dumps(
+        results["memory_spread"]
+    )
     assert "signal 37" in feedback["realtime_signal"] or "SIGRTMIN" in feedback["realtime_signal"]
     # Hidden tests show pass/fail and a kind of failure, never the test's or student's text.
     leak = feedback["leak_arguments"]

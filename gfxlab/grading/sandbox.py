@@ -105,7 +105,10 @@ class Protections:
     def limits_kind(self) -> str:
         if self.cgroup_parent:
             return "cgroup v2 (memory.max, pids.max, cpu.max) plus rlimits"
-        return "rlimits per process plus the per-submission time budget (no cgroup v2 here)"
+        return (
+            "rlimits per process, the grader's watch on the memory of all the submission's "
+            "processes together, and the per-submission time budget (no cgroup v2 here)"
+        )
 
     def describe(self) -> list[str]:
         """One line per layer."""
@@ -378,6 +381,7 @@ class Sandbox:
         self.workdir: str | None = None
         self.uid: int | None = None
         self.cgroup: str | None = None
+        self._memory_checked = 0.0
 
     @property
     def alive(self) -> bool:
@@ -600,7 +604,8 @@ class Sandbox:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
                 raise Timeout("timed out")
-            ready, _, _ = select.select([self._rep_r], [], [], remaining)
+            ready, _, _ = select.select([self._rep_r], [], [], min(remaining, _MEMORY_POLL))
+            self._check_memory()
             if not ready:
                 continue
             chunk = os.read(self._rep_r, min(missing, 1 << 20))
@@ -609,6 +614,26 @@ class Sandbox:
             chunks.append(chunk)
             missing -= len(chunk)
         return b"".join(chunks)
+
+    def _check_memory(self) -> None:
+        """Without cgroup v2: the memory of all the submission's processes together.
+
+        RLIMIT_AS bounds one process; children each under it could together exhaust the
+        host. Polled while the grader waits for a reply (every 0.25 s).
+        """
+        if self.cgroup or self.proc is None:
+            return
+        now = time.monotonic()
+        if now - self._memory_checked < _MEMORY_POLL:
+            return
+        self._memory_checked = now
+        limit = int(self.limits.memory_mb) * 2**20
+        if _tree_rss(self.proc.pid) > limit:
+            self.close()
+            raise Crash(
+                f"the submission used more than {self.limits.memory_mb} MB of memory "
+                "(all its processes together) and was stopped"
+            )
 
     def _read_reply(self, deadline: float):
         (size,) = struct.unpack(">I", self._read_exact(4, deadline))
@@ -659,6 +684,35 @@ class Sandbox:
 
     def __exit__(self, *exc):
         self.close()
+
+
+_MEMORY_POLL = 0.25
+
+
+def _tree_rss(root: int) -> int:
+    """Resident memory (bytes) of process `root` and all its descendants."""
+    children: dict[int, list[int]] = {}
+    rss: dict[int, int] = {}
+    for entry in os.scandir("/proc"):
+        if not entry.name.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry.name}/stat", "rb") as f:
+                fields = f.read().rsplit(b")", 1)[1].split()
+            pid = int(entry.name)
+            children.setdefault(int(fields[1]), []).append(pid)
+            rss[pid] = int(fields[21])
+        except (OSError, ValueError, IndexError):
+            continue
+    total, stack, seen = 0, [root], set()
+    while stack:
+        pid = stack.pop()
+        if pid in seen:
+            continue
+        seen.add(pid)
+        total += rss.get(pid, 0)
+        stack.extend(children.get(pid, []))
+    return total * os.sysconf("SC_PAGE_SIZE")
 
 
 def _signal_name(number: int) -> str:

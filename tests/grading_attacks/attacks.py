@@ -435,6 +435,25 @@ def midpoint_circle_trace(r):
         raise type(f"R{{r}}", (Exception,), {{}})("x")
     return None
 """,
+    # Children each under the per-process memory limit, together over the submission's.
+    "memory_spread": """
+import os
+import time
+
+
+def midpoint_circle_trace(r):
+    time.sleep(60)
+
+
+for _ in range(6):
+    if os.fork() == 0:
+        hoard = bytearray(256 * 2**20)  # touched: resident
+        for i in range(0, len(hoard), 4096):
+            hoard[i] = 1
+        time.sleep(60)
+        os._exit(0)
+time.sleep(60)
+""",
     # A top-level endless loop in its own cell, before the functions.
     "toplevel_loop": """
 while True:
