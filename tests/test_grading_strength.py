@@ -130,24 +130,24 @@ def student_notebooks(tmp_path_factory):
 
 @pytest.mark.parametrize("name", sorted(WEAKENED))
 def test_student_notebook_runs_all_unsolved_and_solved(student_notebooks, name, tmp_path):
+    """One kernel: the unsolved notebook, then the same notebook solved, top to bottom."""
     student, solution = student_notebooks[name]
     tests = [c for c in student["cells"] if "tests" in c["metadata"].get("gfxlab", {})]
     assert len(tests) == 3
-    unsolved = _run_all(student, tmp_path)
-    assert "PASS" not in unsolved
-    assert unsolved.count("FAIL test_") == sum(c["source"].count("\ndef test_") for c in tests)
-    assert "should be an array, got" in unsolved or "is not defined" in unsolved
     solved = copy.deepcopy(student)
     code = [
-        c
-        for c in solved["cells"]
-        if c["cell_type"] == "code" and c not in tests and "gfxlab" not in c["metadata"]
+        c for c in solved["cells"] if c["cell_type"] == "code" and "gfxlab" not in c["metadata"]
     ]
     assert len(code) == len(solution)
     for cell, source in zip(code, solution, strict=True):
         cell["source"] = source
-    text = _run_all(solved, tmp_path)
-    assert "FAIL" not in text and text.count("PASS test_") == unsolved.count("FAIL test_")
+    both = copy.deepcopy(student)
+    both["cells"] += [new_cell("code", "print('=== SOLVED ===')")] + solved["cells"]
+    unsolved, text = _run_all(both, tmp_path).split("=== SOLVED ===")
+    public = sum(c["source"].count("\ndef test_") for c in tests)
+    assert "PASS" not in unsolved and unsolved.count("FAIL test_") == public
+    assert "should be an array, got" in unsolved or "is not defined" in unsolved
+    assert "FAIL" not in text and text.count("PASS test_") == public
 
 
 def test_forbidden_modules_are_announced(student_notebooks):

@@ -112,7 +112,11 @@ def plan(questions: list[authoring.Question], solution_cells: list[str]):
 
 
 def grade_reference_and_mutants(grader, mutants, cell, limits=None, *, fail_fast=False):
-    """Grade the reference, then every mutant, in one sandboxed process.
+    """Grade the reference and the mutants, question by question, in one sandboxed process.
+
+    A question's mutants run once the reference passes all its tests. With `fail_fast`,
+    stops at the first failing reference test or weak test (the questions after it are
+    then missing from the returned reference result).
 
     **Returns:** (the reference's `GradeResult`, the tests wrong answers pass).
     """
@@ -121,41 +125,55 @@ def grade_reference_and_mutants(grader, mutants, cell, limits=None, *, fail_fast
     prot = grader_confinement()
     started = time.perf_counter()
     session = grader.session([*grader.solution_cells(), cell], limits)
-    weak = []
+    weak, questions = [], []
     try:
         try:
             session.start()
         except Exception as exc:
             session._note(str(exc))
-        questions = [grader._grade_question(q, session) for q in grader.questions]
-        reference = GradeResult(
-            "reference",
-            questions,
-            session.notes,
-            prot.describe(),
-            time.perf_counter() - started,
-            session.infrastructure_error,
-        )
-        if reference.error:
-            raise authoring.AuthoringError(f"the sandbox did not start: {reference.error}")
-        if reference.score < reference.max_score:
-            return reference, weak
-        if session.status[-1] != "ok":
+        if session.infrastructure_error:
+            raise authoring.AuthoringError(
+                f"the sandbox did not start: {session.infrastructure_error}"
+            )
+        if session.status and session.status[-1] != "ok":
             raise authoring.AuthoringError(f"the wrong answers did not load: {session.notes}")
-        by_name = {q.name: q for q in grader.questions}
-        for m in mutants:
-            q = by_name[m.question]
-            tests = [t for t in q.tests if m.tests is None or t.name in m.tests]
-            sub = authoring.Question(q.name, q.points, tests)
-            result = grader._grade_question(sub, session, "all", {m.function: m.name})
-            passed = [t.name for t in result.tests if t.passed]
-            if passed:
-                weak.append(f"{m.question}: `{m.function}` {m.kind} passes {', '.join(passed)}")
+        for q in grader.questions:
+            result = grader._grade_question(q, session)
+            questions.append(result)
+            if not all(t.passed for t in result.tests):
                 if fail_fast:
                     break
+                continue
+            weak += _weak_tests(
+                grader, session, q, [m for m in mutants if m.question == q.name], fail_fast
+            )
+            if weak and fail_fast:
+                break
     finally:
         session.close()
+    reference = GradeResult(
+        "reference",
+        questions,
+        session.notes,
+        prot.describe(),
+        time.perf_counter() - started,
+        session.infrastructure_error,
+    )
     return reference, weak
+
+
+def _weak_tests(grader, session, question, mutants, fail_fast) -> list[str]:
+    weak = []
+    for m in mutants:
+        tests = [t for t in question.tests if m.tests is None or t.name in m.tests]
+        sub = authoring.Question(question.name, question.points, tests)
+        result = grader._grade_question(sub, session, "all", {m.function: m.name})
+        passed = [t.name for t in result.tests if t.passed]
+        if passed:
+            weak.append(f"{m.question}: `{m.function}` {m.kind} passes {', '.join(passed)}")
+            if fail_fast:
+                break
+    return weak
 
 
 def grader_confinement():
