@@ -333,6 +333,57 @@ def test_sandbox_allow_list(tmp_path):
     assert "allow-list filesystem" in lines and "resource limits:" in lines
 
 
+FLOOD = """
+import os
+
+
+def flood(place, size):
+    n = 0
+    try:
+        with open(os.path.join(place, "big"), "wb") as f:
+            f.write(b"x" * size)
+        wrote = True
+    except OSError:
+        wrote = False
+    try:
+        while n < 100_000:
+            open(os.path.join(place, f"f{n}"), "w").close()
+            n += 1
+    except OSError:
+        pass
+    return wrote, n
+"""
+
+
+@grading
+def test_private_scratch_is_bounded():
+    """/tmp and /dev/shm: 64 MB each, and (grader as root) 4096 files each."""
+    root = detect_protections().drop_privileges
+    with Sandbox(Limits(output_mb=256, tmp_mb=64)) as box:
+        box.start()
+        box.request("exec", 20, cell=0, source=FLOOD)
+        for place in ("/tmp", "/dev/shm"):
+            for size, fits in ((60 * 2**20, True), (70 * 2**20, False)):
+                wrote, files = box.request(
+                    "call",
+                    60,
+                    name="flood",
+                    transforms=codec.encode([]),
+                    args=codec.encode([place, size]),
+                    kwargs=codec.encode({}),
+                )
+                assert wrote is fits, (place, size)
+                if root:
+                    assert files < 4096, (place, files)
+                box.request(
+                    "exec",
+                    20,
+                    cell=1,
+                    source=f"import shutil, os\n"
+                    f"[os.remove(os.path.join({place!r}, f)) for f in os.listdir({place!r})]",
+                )
+
+
 # --- the shipped assignments -------------------------------------------------------------
 
 

@@ -5,7 +5,8 @@ Runs with the grader's privileges and narrows everything before it becomes bubbl
 
 1. As root only: in a private mount namespace, re-exposes the Python installation when it
    sits under a directory an unprivileged user cannot enter (such as `/root`), so that
-   bwrap, started as a fresh unprivileged uid, can bind it.
+   bwrap, started as a fresh unprivileged uid, can bind it; and mounts the student's
+   scratch tmpfs (`/tmp`, `/dev/shm`) bounded in size and in inodes.
 2. Joins the submission's cgroup (cgroup v2 `memory.max`, `pids.max`, `cpu.max`) when the
    grader made one.
 3. Sets resource limits (CPU, address space, file size, processes, open files, core).
@@ -58,11 +59,14 @@ def _expose(blocker, paths):
 
 def main():
     config = json.loads(sys.argv[1])
-    if config["expose"]:
+    scratch = config.get("scratch", [])
+    if config["expose"] or scratch:
         _check(_libc().unshare(CLONE_NEWNS), "unshare(CLONE_NEWNS)")
         _mount(None, "/", None, MS_REC | MS_PRIVATE)
         for blocker, paths in config["expose"]:
             _expose(blocker, paths)
+        for path, options in scratch:  # private scratch, bounded in bytes and inodes
+            _mount("tmpfs", path, "tmpfs", MS_NOSUID | MS_NODEV, options)
     if config.get("cgroup"):
         with open(os.path.join(config["cgroup"], "cgroup.procs"), "w") as f:
             f.write(str(os.getpid()))

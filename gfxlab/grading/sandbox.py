@@ -441,19 +441,19 @@ class Sandbox:
         if not _package_inside():
             args += ["--ro-bind", str(_PACKAGE), f"{_PACKAGE_TARGET}/gfxlab"]
         args += self._forbid_args()
+        args += ["--proc", "/proc", "--dev", "/dev"]
+        if self.uid is not None:  # the launcher mounts them, bounded in size and inodes
+            args += [
+                "--bind",
+                self._scratch("shm"),
+                "/dev/shm",
+                "--bind",
+                self._scratch("tmp"),
+                "/tmp",
+            ]
+        else:  # bwrap's tmpfs: bounded in size (inodes only by a cgroup, if any)
+            args += ["--size", tmp, "--tmpfs", "/dev/shm", "--size", tmp, "--tmpfs", "/tmp"]
         args += [
-            "--proc",
-            "/proc",
-            "--dev",
-            "/dev",
-            "--size",
-            tmp,
-            "--tmpfs",
-            "/dev/shm",
-            "--size",
-            tmp,
-            "--tmpfs",
-            "/tmp",
             "--remount-ro",
             "/dev",
             "--remount-ro",
@@ -476,6 +476,11 @@ class Sandbox:
             _PACKAGE_TARGET,
         ]
         return args
+
+    def _scratch(self, name: str) -> str:
+        path = os.path.join(self.workdir, name)
+        os.makedirs(path, mode=0o755, exist_ok=True)
+        return path
 
     def _make_cgroup(self) -> None:
         parent = self.protections.cgroup_parent
@@ -509,8 +514,16 @@ class Sandbox:
         req_r, self._req_w = os.pipe()
         self._rep_r, rep_w = os.pipe()
         output = open(os.path.join(self.workdir, ".output"), "wb")  # noqa: SIM115
+        scratch = []
+        if self.uid is not None:
+            options = f"size={int(self.limits.tmp_mb)}m,nr_inodes={_SCRATCH_INODES},mode=0700"
+            scratch = [
+                [self._scratch(n), f"{options},uid={self.uid},gid={self.uid}"]
+                for n in ("tmp", "shm")
+            ]
         config = {
             "expose": [list(e) for e in prot.expose] if self.uid is not None else [],
+            "scratch": scratch,
             "cgroup": self.cgroup,
             "rlimits": self._rlimits(),
             "uid": self.uid,
@@ -687,6 +700,7 @@ class Sandbox:
 
 
 _MEMORY_POLL = 0.25
+_SCRATCH_INODES = 4096  # files in each of /tmp and /dev/shm (an inode costs kernel memory)
 
 
 def _tree_rss(root: int) -> int:
