@@ -445,11 +445,9 @@ def midpoint_circle_trace(r):
     time.sleep(60)
 
 
-for _ in range(6):
+for _ in range(7):
     if os.fork() == 0:
-        hoard = bytearray(256 * 2**20)  # touched: resident
-        for i in range(0, len(hoard), 4096):
-            hoard[i] = 1
+        hoard = b"x" * (200 * 2**20)  # written: resident; each child under RLIMIT_AS
         time.sleep(60)
         os._exit(0)
 time.sleep(60)
