@@ -152,7 +152,10 @@ def _run_cli(folder, autograder, out, *, uid=None, timeout=240, work=None):
     ]
     if uid is not None:
         argv = _as_user(argv, uid, work)
-    cmd = ["unshare", "--pid", "--fork", "--kill-child", "--mount-proc", "--ipc", "--mount", *argv]
+    # Not root (a developer's machine): the same namespaces inside a user namespace.
+    user = [] if os.geteuid() == 0 else ["--map-current-user"]
+    cmd = ["unshare", *user, "--pid", "--fork", "--kill-child", "--mount-proc", "--ipc", "--mount"]
+    cmd += argv
     return subprocess.run(
         cmd,
         capture_output=True,
