@@ -24,6 +24,7 @@ import time
 import pytest
 from grading_attacks.attacks import (
     BUDGET,
+    COMM,
     HONEST_Q1,
     LEAK_ONLY,
     submission_cells,
@@ -232,8 +233,8 @@ def _check_attack(name, report, hidden_names, seconds):
 def _host_is_clean():
     for place in ("/dev/shm", "/tmp", "/var/tmp", "/run/lock"):
         assert not os.path.exists(os.path.join(place, MARKER)), place
-    leftover = subprocess.run(["ps", "-eo", "uid="], capture_output=True, text=True).stdout
-    assert not [u for u in leftover.split() if int(u) >= 1_100_000], "sandbox processes left"
+    names = subprocess.run(["ps", "-eo", "comm="], capture_output=True, text=True).stdout
+    assert COMM not in names.split(), "attack processes outlived grading"
 
 
 @pytest.fixture(scope="module")

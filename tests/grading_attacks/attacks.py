@@ -157,6 +157,9 @@ def midpoint_circle_trace(r):
     "fork_bomb": """
 import os
 
+with open("/proc/self/comm", "w") as _comm:  # every process it forks is visible by name
+    _comm.write({comm!r})
+
 
 def midpoint_circle_trace(r):
     while True:
@@ -299,6 +302,9 @@ def midpoint_circle_trace(r):
 import os
 import time
 
+with open("/proc/self/comm", "w") as _comm:  # every process it forks is visible by name
+    _comm.write({comm!r})
+
 
 def midpoint_circle_trace(r):
     for _ in range(3):
@@ -440,6 +446,9 @@ def midpoint_circle_trace(r):
 import os
 import time
 
+with open("/proc/self/comm", "w") as _comm:  # every process it forks is visible by name
+    _comm.write({comm!r})
+
 
 def midpoint_circle_trace(r):
     time.sleep(60)
@@ -469,9 +478,12 @@ BUDGET = {"slow_calls"}
 LEAK_ONLY = {"leak_via_public"}
 
 
+COMM = "gfxlab-attack"  # the process name of attacks that fork: must not outlive grading
+
+
 def submission_cells(reference_cells, attack, **context):
     """The reference solution's cells with the q1 function replaced by the attack."""
-    code = ATTACKS[attack].format(**context)
+    code = ATTACKS[attack].format(comm=COMM, **context)
     cells = []
     for cell in reference_cells:
         if TARGET in cell:
