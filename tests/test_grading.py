@@ -459,8 +459,18 @@ def test_cli_grade_check_and_folder(built, tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "total     15.00" in printed
     report = json.loads(out.read_text())
-    assert report["score"] == 15 and len(report["tests"]) == 3
+    assert report["score"] == 15 and len(report["tests"]) == 6
     assert set(report["tests"][0]) >= {"name", "score", "max_score", "output", "visibility"}
+    # Per question: the public part now, the hidden part once grades are published.
+    assert [(t["name"], t["visibility"]) for t in report["tests"][:2]] == [
+        ("q1", "visible"),
+        ("q1 (hidden tests)", "after_published"),
+    ]
+    assert [t["max_score"] for t in report["tests"][:2]] == [
+        pytest.approx(5 / 3, abs=1e-3),
+        pytest.approx(10 / 3, abs=1e-3),
+    ]
+    assert _per_question(report) == {"q1": 5, "q2": 5, "q3": 5}
 
     assert (
         main(
@@ -473,7 +483,7 @@ def test_cli_grade_check_and_folder(built, tmp_path, capsys):
     assert "the trace should have shape (any, 3), got shape (7, 2)" in printed
     assert "FAIL hidden test 1\n    wrong type, shape or dtype of the result" in printed
     report = json.loads(out.read_text())
-    assert [t["score"] for t in report["tests"]] == [0, 5, 5]
+    assert _per_question(report) == {"q1": 0, "q2": 5, "q3": 5}
 
     assert main("check", [str(result.student_notebook)]) == 0
     printed = capsys.readouterr().out
@@ -501,6 +511,14 @@ def test_cli_grade_check_and_folder(built, tmp_path, capsys):
     assert totals == {"alice.ipynb": 15, "bob.ipynb": 0, "carol.ipynb": 10, "dave.ipynb": 0}
     assert json.loads((folder / "alice" / "results.json").read_text())["score"] == 15
     assert {r["grading_error"] for r in rows} == {""}
+
+
+def _per_question(report):
+    out = {}
+    for t in report["tests"]:
+        name = t["name"].removesuffix(" (hidden tests)")
+        out[name] = round(out.get(name, 0) + t["score"], 6)
+    return out
 
 
 def write_notebook_cells(cells, path):

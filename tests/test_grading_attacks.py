@@ -201,7 +201,16 @@ def _load(out):
 
 
 def _scores(report):
-    return {t["name"]: t["score"] for t in report["tests"]}
+    """Score per question (its public and hidden parts together)."""
+    out = {}
+    for t in report["tests"]:
+        name = t["name"].removesuffix(" (hidden tests)")
+        out[name] = round(out.get(name, 0) + t["score"], 6)
+    return out
+
+
+def _q1_feedback(report):
+    return "\n".join(t["output"] for t in report["tests"] if t["name"].startswith("q1"))
 
 
 def _check_attack(name, report, hidden_names, seconds):
@@ -222,7 +231,7 @@ def _check_attack(name, report, hidden_names, seconds):
         assert seconds < LIMITS["budget_seconds"] + 10, name
         assert report["score"] < 15, name
         return
-    assert scores["q1"] == 0, (name, report["tests"][0]["output"])
+    assert scores["q1"] == 0, (name, _q1_feedback(report))
     assert "status 10" not in text and not re.search(r"\bR\d+\b", text), name
     if name in LEAK_ONLY:
         return
@@ -265,7 +274,7 @@ def test_every_attack_scores_only_its_honest_part(graded):
         _check_attack(name, results[name], hidden, seconds[name])
     assert graded["hits"] == [], "a submission reached the network"
     _host_is_clean()
-    feedback = {n: results[n]["tests"][0]["output"] for n in graded["names"]}
+    feedback = {n: _q1_feedback(results[n]) for n in graded["names"]}
     assert "timed out after 2 s" in feedback["cpu_loop"]
     assert "cannot be returned" in feedback["eq_always_true"]
     assert "more than 1024 MB of memory (all its processes together)" in json.dumps(

@@ -225,7 +225,8 @@ def test_gradescope_zip_end_to_end(tmp_path, capsys):
     elapsed = time.monotonic() - started
     assert run.returncode == 0, run.stderr[-2000:]
     results = json.loads((root / "results" / "results.json").read_text())
-    assert results["score"] == 15 and [t["max_score"] for t in results["tests"]] == [5, 5, 5]
+    assert results["score"] == 15 and sum(t["max_score"] for t in results["tests"]) == 15
+    assert {t["visibility"] for t in results["tests"]} == {"visible", "after_published"}
     assert elapsed < 60
     # A submission without a notebook still gets a results file.
     (root / "submission" / "jpeg_block.ipynb").unlink()

@@ -303,6 +303,31 @@ class QuestionResult:
         return "\n".join(lines)
 
 
+def _gradescope_entries(q: QuestionResult) -> list[dict]:
+    """A question as Gradescope tests: its public part (visible now) and its hidden part
+    (pass/fail and points, shown once the instructor publishes the grades)."""
+    total = sum(t.weight for t in q.tests)
+    entries = []
+    for hidden, suffix, visibility in (
+        (False, "", "visible"),
+        (True, " (hidden tests)", "after_published"),
+    ):
+        part = [t for t in q.tests if t.hidden == hidden]
+        if not part or not total:
+            continue
+        share = QuestionResult(q.name, q.points * sum(t.weight for t in part) / total, part)
+        entries.append(
+            {
+                "name": _bounded(q.name, 100) + suffix,
+                "score": round(share.score, 4),
+                "max_score": round(share.points, 4),
+                "output": _bounded(share.feedback(), 20_000),
+                "visibility": visibility,
+            }
+        )
+    return entries
+
+
 def _bounded(text: str, limit: int) -> str:
     """At most `limit` characters of printable text (control characters become spaces)."""
     text = str(text)
@@ -348,16 +373,7 @@ class GradeResult:
             "output": notes or "Graded by gfxlab.grading.",
             "visibility": "visible",
             "stdout_visibility": "hidden",
-            "tests": [
-                {
-                    "name": _bounded(q.name, 100),
-                    "score": round(q.score, 4),
-                    "max_score": q.points,
-                    "output": _bounded(q.feedback(), 20_000),
-                    "visibility": "visible",
-                }
-                for q in self.questions
-            ],
+            "tests": [entry for q in self.questions for entry in _gradescope_entries(q)],
             "extra_data": {
                 "isolation": [_bounded(p, 1000) for p in self.protections],
                 "grading_error": bool(self.error),
