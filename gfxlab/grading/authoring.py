@@ -53,7 +53,8 @@ def read_notebook(path) -> dict:
         nb = json.load(f)
     if not isinstance(nb, dict) or not isinstance(nb.get("cells"), list):
         raise ValueError(f"{path} is not a Jupyter notebook")
-    nb.setdefault("metadata", {})
+    if not isinstance(nb.get("metadata"), dict):
+        nb["metadata"] = {}
     for cell in nb["cells"]:
         if not isinstance(cell, dict) or cell.get("cell_type") not in ("code", "markdown", "raw"):
             raise ValueError(f"{path}: malformed cell")
@@ -61,12 +62,18 @@ def read_notebook(path) -> dict:
         cell["source"] = source if isinstance(source, str) else "".join(map(str, source))
         if not isinstance(cell.get("metadata"), dict):
             cell["metadata"] = {}
+        if not isinstance(cell["metadata"].get("gfxlab", {}), dict):
+            cell["metadata"]["gfxlab"] = {}
     return nb
 
 
 def new_cell(kind: str, source: str, metadata: dict | None = None) -> dict:
-    cell = {"cell_type": kind, "id": uuid.uuid4().hex[:8], "metadata": metadata or {},
-            "source": source}
+    cell = {
+        "cell_type": kind,
+        "id": uuid.uuid4().hex[:8],
+        "metadata": metadata or {},
+        "source": source,
+    }
     if kind == "code":
         cell.update(outputs=[], execution_count=None)
     return cell
@@ -229,8 +236,10 @@ def _split_tests(source: str, question: Question, cell_hidden: bool, weight: flo
         if hidden and not cell_hidden:
             drop.append((start - 1, node.end_lineno))
     full = source
-    public = "" if cell_hidden else "\n".join(
-        ln for i, ln in enumerate(lines) if not any(a <= i < b for a, b in drop)
+    public = (
+        ""
+        if cell_hidden
+        else "\n".join(ln for i, ln in enumerate(lines) if not any(a <= i < b for a, b in drop))
     )
     return public, full
 
@@ -276,9 +285,14 @@ def parse_notebook(notebook) -> Assignment:
             question = None
             continue
         if cell["cell_type"] == "raw":
-            for pattern, flag in ((_BEGIN_TESTS, "t+"), (_END_TESTS, "t-"),
-                                  (_BEGIN_SOL, "s+"), (_END_SOL, "s-"),
-                                  (_BEGIN_PROMPT, "p+"), (_END_PROMPT, "p-")):
+            for pattern, flag in (
+                (_BEGIN_TESTS, "t+"),
+                (_END_TESTS, "t-"),
+                (_BEGIN_SOL, "s+"),
+                (_END_SOL, "s-"),
+                (_BEGIN_PROMPT, "p+"),
+                (_END_PROMPT, "p-"),
+            ):
                 if pattern.match(first):
                     if flag[0] == "t":
                         in_tests = flag[1] == "+"
@@ -334,22 +348,71 @@ def parse_notebook(notebook) -> Assignment:
             raise AuthoringError(f"question {q.name} has no tests")
     student = new_notebook(copy.deepcopy(notebook["metadata"]))
     student["metadata"].pop("gfxlab", None)
-    student["cells"] = student_cells
+    extra = [c for c in (_forbid_cell(config), _x64_cell(config)) if c is not None]
+    student["cells"] = student_cells[:1] + extra + student_cells[1:]
     student["metadata"]["gfxlab"] = {
         "assignment": name,
         "questions": [{"name": q.name, "points": q.points} for q in questions],
+        "preload": list(config.get("preload", ["numpy"])),
+        "forbid": list(config.get("forbid", [])),
     }
     return Assignment(name, questions, student, solution_cells, config)
 
 
+_RUN_LINE = "run_tests(globals(), "
+
+
 def _public_test_cell(q: Question) -> dict:
-    """The question's public tests, in one tagged code cell of the student notebook."""
+    """The question's public tests, in one tagged code cell of the student notebook.
+
+    It runs as it is in Jupyter ("Run All"): it imports what the tests use, and its last
+    line runs them on the notebook's functions, printing PASS/FAIL without raising.
+    """
     source = "\n\n".join(part.strip("\n") for part in q.public_source)
+    names = [t.name for t in q.tests if not t.hidden]
     header = (
-        f"# Public tests for {q.name}: run `python -m gfxlab check THIS_NOTEBOOK.ipynb`.\n"
+        f"# Public tests for {q.name}: run this cell, or `python -m gfxlab check "
+        "THIS_NOTEBOOK.ipynb`.\n"
         "# Each test receives your functions by parameter name.\n"
+        "import numpy as np\n"
+        "from gfxlab.grading.checks import check_array, run_tests\n\n"
     )
-    return new_cell("code", header + source, {"gfxlab": {"tests": q.name}})
+    run = f"\n\n\n{_RUN_LINE}{names!r}, question={q.name!r})\n"
+    return new_cell("code", header + source + run, {"gfxlab": {"tests": q.name}})
+
+
+def public_test_cells(notebook) -> dict[str, str]:
+    """Question name -> the source of its public-test cell (without the line running it)."""
+    out = {}
+    for cell in notebook["cells"]:
+        name = cell["metadata"].get("gfxlab", {}).get("tests")
+        if cell["cell_type"] == "code" and isinstance(name, str):
+            lines = [ln for ln in cell["source"].splitlines() if not ln.startswith(_RUN_LINE)]
+            out[name] = "\n".join(lines)
+    return out
+
+
+def _x64_cell(config: dict) -> dict | None:
+    """JAX assignments: the notebook computes in float64, as the grader does."""
+    if "jax" not in config.get("preload", []) or not config.get("x64", True):
+        return None
+    source = (
+        "# The grader runs JAX in float64; so does this notebook.\n"
+        'import jax\n\njax.config.update("jax_enable_x64", True)'
+    )
+    return new_cell("code", source, {"gfxlab": {"setup": True}})
+
+
+def _forbid_cell(config: dict) -> dict | None:
+    forbid = config.get("forbid") or []
+    if not forbid:
+        return None
+    names = ", ".join(f"`{m}`" for m in forbid)
+    return new_cell(
+        "markdown",
+        f"**Not allowed in this assignment:** {names}. The grader "
+        "makes these modules unimportable; code using them scores 0.",
+    )
 
 
 def student_code_cells(notebook) -> list[str]:

@@ -7,13 +7,16 @@ import json
 import pathlib
 import sys
 
-from . import authoring, grader
+from . import authoring, commands, grader
 from .sandbox import IsolationUnavailable, detect_protections
 
 
 def _limit_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--timeout", type=float, help="wall seconds per function call")
     parser.add_argument("--memory-mb", type=int, help="address-space limit of the student")
+    parser.add_argument(
+        "--budget", type=float, help="wall seconds for one whole submission (restarts included)"
+    )
 
 
 def _limits(args) -> dict:
@@ -22,6 +25,8 @@ def _limits(args) -> dict:
         out["call_timeout"] = args.timeout
     if args.memory_mb is not None:
         out["memory_mb"] = args.memory_mb
+    if args.budget is not None:
+        out["budget_seconds"] = args.budget
     return out
 
 
@@ -32,21 +37,37 @@ def _assign(argv) -> int:
     )
     parser.add_argument("source", type=pathlib.Path, help="instructor notebook (.ipynb)")
     parser.add_argument("out", type=pathlib.Path, help="output directory")
-    parser.add_argument("--no-verify", action="store_true",
-                        help="skip grading the reference and the blank notebook")
+    parser.add_argument(
+        "--no-verify",
+        action="store_true",
+        help="skip proving the tests (reference, blank notebook, wrong answers)",
+    )
+    parser.add_argument(
+        "--gradescope", action="store_true", help="also write OUT/autograder.zip for Gradescope"
+    )
     _limit_args(parser)
     args = parser.parse_args(argv)
     try:
-        result = grader.assign(args.source, args.out, verify=not args.no_verify,
-                               limits=_limits(args))
+        result = commands.assign(
+            args.source,
+            args.out,
+            verify_tests=not args.no_verify,
+            limits=_limits(args),
+            gradescope=args.gradescope,
+        )
     except (authoring.AuthoringError, FileNotFoundError) as exc:
         print(f"authoring error: {exc}", file=sys.stderr)
         return 1
     print(f"student notebook: {result.student_notebook}")
     print(f"autograder:       {result.autograder}")
+    if result.gradescope is not None:
+        print(f"gradescope:       {result.gradescope}")
     if result.reference is not None:
-        print(f"reference solution: {result.reference.score:g}/{result.reference.max_score:g}; "
-              f"unsolved notebook: {result.blank.score:g}/{result.blank.max_score:g}")
+        print(
+            f"reference solution: {result.reference.score:g}/{result.reference.max_score:g}; "
+            f"unsolved notebook: {result.blank.score:g}/{result.blank.max_score:g}; "
+            f"{result.mutants} generated wrong answers earn nothing"
+        )
     return 0
 
 
@@ -59,7 +80,7 @@ def _check(argv) -> int:
     _limit_args(parser)
     args = parser.parse_args(argv)
     try:
-        result = grader.check(args.notebook, limits=_limits(args))
+        result = commands.check(args.notebook, limits=_limits(args))
     except (authoring.AuthoringError, FileNotFoundError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
@@ -69,6 +90,9 @@ def _check(argv) -> int:
     for note in result.notes:
         print(f"note: {note}")
     print("(public tests only; hidden tests decide the final grade)")
+    if result.error:
+        print(f"error: the sandbox failed: {result.error}", file=sys.stderr)
+        return 2
     return 0
 
 
@@ -81,15 +105,25 @@ def _grade(argv) -> int:
         description="Grade a submitted notebook, or every .ipynb in a folder in parallel.",
     )
     parser.add_argument("submission", type=pathlib.Path, help="notebook or folder of notebooks")
-    parser.add_argument("--autograder", type=pathlib.Path, required=True,
-                        help="the autograder directory written by `assign`")
-    parser.add_argument("--out", type=pathlib.Path,
-                        help="results.json path (one notebook) or output folder (a folder); "
-                             "default: ./results.json or ./grading-results/")
+    parser.add_argument(
+        "--autograder",
+        type=pathlib.Path,
+        required=True,
+        help="the autograder directory written by `assign`",
+    )
+    parser.add_argument(
+        "--out",
+        type=pathlib.Path,
+        help="results.json path (one notebook) or output folder (a folder); "
+        "default: ./results.json or ./grading-results/",
+    )
     parser.add_argument("--jobs", type=int, help="parallel graders (default: CPU cores)")
     parser.add_argument("--verbose", action="store_true", help="print per-test feedback")
-    parser.add_argument("--isolation", action="store_true",
-                        help="print which isolation layers are active here, and exit")
+    parser.add_argument(
+        "--isolation",
+        action="store_true",
+        help="print which isolation layers are active here, and exit",
+    )
     _limit_args(parser)
     args = parser.parse_args(argv)
     if not (args.autograder / "config.json").is_file():
@@ -101,16 +135,34 @@ def _grade(argv) -> int:
             print(f"error: no .ipynb files in {args.submission}", file=sys.stderr)
             return 1
         out = args.out or pathlib.Path("grading-results")
-        results = grader.grade_many(notebooks, args.autograder, out, jobs=args.jobs,
-                                    limits=_limits(args))
+        results = commands.grade_many(
+            notebooks, args.autograder, out, jobs=args.jobs, limits=_limits(args)
+        )
         for r in results:
-            print(f"{r.submission:40s} {r.score:7.2f} / {r.max_score:g}  ({r.seconds:.1f} s)")
+            flag = "  GRADING ERROR" if r.error else ""
+            print(
+                f"{r.submission[:40]!s:40s} {r.score:7.2f} / {r.max_score:g}  "
+                f"({r.seconds:.1f} s){flag}"
+            )
         print(f"summary: {out / 'summary.csv'}")
+        errors = sum(bool(r.error) for r in results)
+        if errors:
+            print(
+                f"error: the grader failed on {errors} submission(s); see summary.csv",
+                file=sys.stderr,
+            )
+            return 2
         return 0
     if not args.submission.is_file():
         print(f"error: {args.submission} not found", file=sys.stderr)
         return 1
-    result = grader.Autograder(args.autograder).grade(args.submission, limits=_limits(args))
+    autograder = grader.Autograder(args.autograder)
+    try:
+        result = autograder.grade(args.submission, limits=_limits(args))
+    except IsolationUnavailable:
+        raise
+    except Exception as exc:  # the grader broke: still a bounded results file, exit code 2
+        result = autograder.empty_result(args.submission.name, "", f"grader error: {exc!r}")
     out = args.out or pathlib.Path("results.json")
     out.write_text(json.dumps(result.to_gradescope(), indent=1))
     print(result.table())
@@ -120,12 +172,22 @@ def _grade(argv) -> int:
     for note in result.notes:
         print(f"note: {note}")
     print(f"results: {out}  ({result.seconds:.2f} s)")
+    if result.error:
+        print(f"error: the grader failed: {result.error}", file=sys.stderr)
+        return 2
     return 0
+
+
+def _gradescope(argv) -> int:
+    """`python -m gfxlab.grading.cli gradescope AUTOGRADER SUBMISSION_DIR RESULTS_JSON`."""
+    from .gradescope import run
+
+    return run(*[pathlib.Path(a) for a in argv])
 
 
 def main(command: str, argv: list[str]) -> int:
     """Entry point used by `python -m gfxlab` (`command` is assign, check or grade)."""
-    handlers = {"assign": _assign, "check": _check, "grade": _grade}
+    handlers = {"assign": _assign, "check": _check, "grade": _grade, "gradescope": _gradescope}
     if command not in handlers:
         print(f"unknown grading command {command!r}", file=sys.stderr)
         return 2
@@ -134,3 +196,7 @@ def main(command: str, argv: list[str]) -> int:
     except IsolationUnavailable as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1], sys.argv[2:]) if len(sys.argv) > 1 else 2)

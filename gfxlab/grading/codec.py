@@ -91,7 +91,7 @@ def decode(obj, _depth=0, _budget=None):
     if kind is not dict or len(obj) not in (1, 4):
         raise WireError(f"malformed value of JSON type {kind.__name__}")
     if len(obj) == 1:
-        (tag, body), = obj.items()
+        ((tag, body),) = obj.items()
         if tag == "f" and type(body) is str:
             try:
                 return float(body)
@@ -133,7 +133,12 @@ def decode(obj, _depth=0, _budget=None):
     le = np.dtype(dtype).newbyteorder("<")
     if len(raw) != size * le.itemsize:
         raise WireError("array data does not match its shape and dtype")
-    array = np.frombuffer(raw, dtype=le).astype(np.dtype(dtype)).reshape(shape)
+    if any(n > 2**40 for n in shape):
+        raise WireError("absurd array shape")
+    try:
+        array = np.frombuffer(raw, dtype=le).astype(np.dtype(dtype)).reshape(shape)
+    except (ValueError, MemoryError):
+        raise WireError("array data does not match its shape") from None
     if scalar:
         if shape:
             raise WireError("malformed scalar")

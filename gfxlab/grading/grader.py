@@ -13,22 +13,20 @@ tests read like ordinary JAX tests while differentiation happens in the student 
 from __future__ import annotations
 
 import builtins
-import concurrent.futures
-import csv
 import dataclasses
 import importlib
 import io
 import json
-import multiprocessing
 import os
 import pathlib
-import shutil
+import stat
 import time
 import traceback
 
 import numpy as np
 
 from . import authoring, codec
+from .checks import Feedback, check_array
 from .sandbox import (
     Crash,
     Limits,
@@ -41,55 +39,28 @@ from .sandbox import (
     require_confinement,
 )
 
-FORMAT = 1
+__all__ = [
+    "Autograder",
+    "GradeResult",
+    "QuestionResult",
+    "StudentFunction",
+    "TestResult",
+    "check_array",
+    "Feedback",
+]
+
+MAX_NOTEBOOK_BYTES = 16 * 2**20
 
 
 class StudentCallError(AssertionError):
-    """A call to a student function failed (raised, timed out, crashed, bad value)."""
+    """A call to a student function failed (raised, timed out, crashed, bad value).
 
-
-class Feedback(AssertionError):
-    """A failure whose message is safe to show even for hidden tests (type, shape)."""
-
-
-def check_array(value, *, shape=None, dtype=None, kind=None, name="the result"):
-    """Check a student's returned value is an array of the expected shape and dtype.
-
-    **Arguments:**
-
-    - `value`: what the student's function returned.
-    - `shape`: expected shape (tuple; `None` entries match any size).
-    - `dtype`: expected exact dtype (e.g. `np.float64`).
-    - `kind`: expected dtype kind: `"f"` float, `"i"` integer (signed or unsigned), `"b"` bool.
-    - `name`: how the feedback names the value.
-
-    **Returns:** `value` as a numpy array. Raises `Feedback` (an `AssertionError` shown to
-    the student even in hidden tests) with a clear message otherwise.
+    `generic`: what a hidden test may show instead of the message, if it differs.
     """
-    arraylike = isinstance(value, (np.ndarray, list, tuple, np.generic, int, float))
-    if not arraylike and not hasattr(value, "__array__"):
-        raise Feedback(f"{name} should be an array, got {type(value).__name__}")
-    try:
-        array = np.asarray(value)
-    except (ValueError, TypeError):
-        raise Feedback(f"{name} should be an array; it is ragged or mixed") from None
-    if array.dtype == object:
-        raise Feedback(f"{name} should be a numeric array; it is ragged or mixed")
-    if shape is not None:
-        ok = array.ndim == len(shape) and all(
-            s is None or s == n for s, n in zip(shape, array.shape, strict=False)
-        )
-        if not ok:
-            want = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ")"
-            raise Feedback(f"{name} should have shape {want}, got shape {array.shape}")
-    if kind is not None:
-        kinds = {"f": "f", "i": "iu", "b": "b"}[kind]
-        if array.dtype.kind not in kinds:
-            words = {"f": "a floating-point", "i": "an integer", "b": "a boolean"}[kind]
-            raise Feedback(f"{name} should have {words} dtype, got {array.dtype}")
-    if dtype is not None and array.dtype != np.dtype(dtype):
-        raise Feedback(f"{name} should have dtype {np.dtype(dtype)}, got {array.dtype}")
-    return array
+
+    def __init__(self, message: str, generic: str | None = None):
+        super().__init__(message)
+        self.generic = None if generic is None else message.split(" failed: ")[0] + " " + generic
 
 
 def _plain_arg(value):
@@ -174,35 +145,57 @@ class StudentSession:
 
     After a crash or timeout the process is restarted and the cells that ran before are
     replayed (the cell that failed is skipped). A function whose call timed out or
-    crashed the process is not called again: its remaining tests fail at once.
+    crashed the process is not called again: its remaining tests fail at once. The whole
+    submission has one wall-clock budget (`Limits.budget_seconds`), restarts included.
     """
 
-    def __init__(self, cells, limits: Limits, *, hide=(), preload=("numpy",), x64=True,
-                 jax_cache=None, trusted=False):
+    def __init__(self, cells, limits: Limits, *, preload=("numpy",), x64=True, forbid=()):
         self.cells = list(cells)
         self.limits = limits
-        self.sandbox = Sandbox(limits, hide=tuple(hide), preload=tuple(preload), x64=x64,
-                               jax_cache=jax_cache, jax_cache_writable=trusted)
+        self.sandbox = Sandbox(limits, preload=tuple(preload), x64=x64, forbid=tuple(forbid))
         self.status: list[str | None] = [None] * len(self.cells)
         self.stopped: dict[str, str] = {}
         self.restarts = -1
         self.notes: list[str] = []
+        self.infrastructure_error: str | None = None
+        self.deadline = time.monotonic() + limits.budget_seconds
+
+    def _note(self, text: str) -> None:
+        if text not in self.notes and len(self.notes) < 20:
+            self.notes.append(text[:1000])
+
+    def _timeout(self, seconds: float) -> float:
+        remaining = self.deadline - time.monotonic()
+        if remaining <= 0:
+            message = (
+                f"the submission's time budget of {self.limits.budget_seconds:g} s "
+                "ran out; the rest is not graded"
+            )
+            self._note(message)
+            self.sandbox.close()
+            raise StudentCallError(message)
+        return min(seconds, remaining)
 
     def _ensure(self):
         while not self.sandbox.alive:
             self.restarts += 1
             if self.restarts > self.limits.max_restarts:
                 raise StudentCallError("the student process crashed too often; giving up")
+            self._timeout(1)
             try:
                 self.sandbox.start()
             except SandboxError as exc:
-                self.notes.append(str(exc))
-                continue
+                # No student code runs before the process is ready: this is the grader's
+                # problem (host, sandbox), never the student's.
+                self.infrastructure_error = str(exc)[:2000]
+                raise StudentCallError("the grader could not start the sandbox") from None
             for i, source in enumerate(self.cells):
                 if self.status[i] not in (None, "ok"):
                     continue
                 try:
-                    self.sandbox.request("exec", self.limits.exec_timeout, source=source, cell=i)
+                    self.sandbox.request(
+                        "exec", self._timeout(self.limits.exec_timeout), source=source, cell=i
+                    )
                     self.status[i] = "ok"
                 except StudentError as exc:
                     self.status[i] = f"cell {i} raised {exc}"
@@ -210,8 +203,8 @@ class StudentSession:
                     self.status[i] = f"cell {i} timed out after {self.limits.exec_timeout:g} s"
                 except (Crash, ProtocolError) as exc:
                     self.status[i] = f"cell {i} stopped the student process: {exc}"
-                if self.status[i] != "ok" and self.status[i] not in self.notes:
-                    self.notes.append(self.status[i])
+                if self.status[i] != "ok":
+                    self._note(self.status[i])
                 if not self.sandbox.alive:
                     break
 
@@ -222,7 +215,7 @@ class StudentSession:
         try:
             self._ensure()
             flags = self.sandbox.request(
-                "names", self.limits.call_timeout, names=codec.encode(list(names))
+                "names", self._timeout(self.limits.call_timeout), names=codec.encode(list(names))
             )
         except (SandboxError, StudentCallError):
             return {n: True for n in names}  # let the call itself report the problem
@@ -241,19 +234,37 @@ class StudentSession:
             kwargs=codec.encode({k: _plain_arg(v) for k, v in kwargs.items()}),
         )
         self._ensure()
+        timeout = self._timeout(self.limits.call_timeout)
         try:
-            return self.sandbox.request("call", self.limits.call_timeout, **payload)
+            return self.sandbox.request("call", timeout, **payload)
         except StudentError as exc:
-            raise StudentCallError(f"{label} raised {exc}") from None
+            raise StudentRaised(label, str(exc)) from None
         except Timeout:
-            reason = f"it timed out after {self.limits.call_timeout:g} s"
+            if time.monotonic() >= self.deadline:
+                self._timeout(0)
+            reason = f"it timed out after {timeout:g} s"
+            self.stopped[name] = reason
+            raise StudentCallError(f"{label} failed: {reason}") from None
         except (Crash, ProtocolError) as exc:
-            reason = str(exc)
-        self.stopped[name] = reason
-        raise StudentCallError(f"{label} failed: {reason}")
+            # The details (exit status, signal) are the student's to choose: kept out of
+            # anything shown later, where they could carry a hidden input.
+            self.stopped[name] = "it crashed the student process before"
+            raise StudentCallError(f"{label} failed: {exc}", generic="crashed") from None
 
     def close(self):
         self.sandbox.close()
+
+
+class StudentRaised(StudentCallError):
+    """The student's function raised: the text is shown for public tests only."""
+
+    def __init__(self, label: str, error: str):
+        super().__init__(f"{label} raised {error}")
+        kind = error.split(":", 1)[0].split("\n", 1)[0].strip()
+        builtin = isinstance(getattr(builtins, kind, None), type) and issubclass(
+            getattr(builtins, kind), BaseException
+        )  # a class name of the student's choosing could spell out a hidden input
+        self.short = f"{label} raised {kind if builtin else 'an exception'}"
 
 
 @dataclasses.dataclass
@@ -278,24 +289,67 @@ class QuestionResult:
         return self.points * won / total if total else 0.0
 
     def feedback(self) -> str:
-        lines = []
+        """PASS/FAIL per test; hidden tests are numbered, never named."""
+        lines, hidden = [], 0
         for t in self.tests:
-            tag = " (hidden)" if t.hidden else ""
-            lines.append(f"{'PASS' if t.passed else 'FAIL'} {t.name}{tag}")
+            if t.hidden:
+                hidden += 1
+                name = f"hidden test {hidden}"
+            else:
+                name = t.name
+            lines.append(f"{'PASS' if t.passed else 'FAIL'} {name}")
             if t.message:
-                lines.extend("    " + m for m in t.message.splitlines())
+                lines.extend("    " + m for m in _bounded(t.message, 2000).splitlines())
         return "\n".join(lines)
+
+
+def _gradescope_entries(q: QuestionResult) -> list[dict]:
+    """A question as Gradescope tests: its public part (visible now) and its hidden part
+    (pass/fail and points, shown once the instructor publishes the grades)."""
+    total = sum(t.weight for t in q.tests)
+    entries = []
+    for hidden, suffix, visibility in (
+        (False, "", "visible"),
+        (True, " (hidden tests)", "after_published"),
+    ):
+        part = [t for t in q.tests if t.hidden == hidden]
+        if not part or not total:
+            continue
+        share = QuestionResult(q.name, q.points * sum(t.weight for t in part) / total, part)
+        entries.append(
+            {
+                "name": _bounded(q.name, 100) + suffix,
+                "score": round(share.score, 4),
+                "max_score": round(share.points, 4),
+                "output": _bounded(share.feedback(), 20_000),
+                "visibility": visibility,
+            }
+        )
+    return entries
+
+
+def _bounded(text: str, limit: int) -> str:
+    """At most `limit` characters of printable text (control characters become spaces)."""
+    text = str(text)
+    if len(text) > limit:
+        text = text[:limit] + " [...]"
+    return "".join(c if c.isprintable() or c == "\n" else " " for c in text)
 
 
 @dataclasses.dataclass
 class GradeResult:
-    """Scores of one submission, per question, with feedback."""
+    """Scores of one submission, per question, with feedback.
+
+    `error` is set when the grader itself failed (the sandbox could not start, ...): the
+    score is then not the student's, and the command line exits with an error.
+    """
 
     submission: str
     questions: list[QuestionResult]
     notes: list[str]
     protections: list[str]
     seconds: float
+    error: str | None = None
 
     @property
     def score(self) -> float:
@@ -306,24 +360,24 @@ class GradeResult:
         return sum(q.points for q in self.questions)
 
     def to_gradescope(self) -> dict:
-        """Gradescope's `results.json` structure."""
+        """Gradescope's `results.json` structure, bounded in size whatever the submission."""
+        notes = "\n".join(_bounded(n, 1000) for n in self.notes[:20])
+        if self.error:
+            notes = (
+                "GRADING ERROR (not your fault; staff will regrade): "
+                + _bounded(self.error, 2000)
+                + ("\n" + notes if notes else "")
+            )
         return {
             "score": round(self.score, 4),
-            "execution_time": round(self.seconds, 3),
-            "output": "\n".join(self.notes) if self.notes else "Graded by gfxlab.grading.",
+            "output": notes or "Graded by gfxlab.grading.",
             "visibility": "visible",
             "stdout_visibility": "hidden",
-            "tests": [
-                {
-                    "name": q.name,
-                    "score": round(q.score, 4),
-                    "max_score": q.points,
-                    "output": q.feedback(),
-                    "visibility": "visible",
-                }
-                for q in self.questions
-            ],
-            "extra_data": {"isolation": self.protections},
+            "tests": [entry for q in self.questions for entry in _gradescope_entries(q)],
+            "extra_data": {
+                "isolation": [_bounded(p, 1000) for p in self.protections],
+                "grading_error": bool(self.error),
+            },
         }
 
     def table(self) -> str:
@@ -343,19 +397,26 @@ class GradeResult:
 
 
 def _failure_message(exc: BaseException, hidden: bool) -> str:
-    return _describe_failure(exc, hidden)[:2000]
+    """What the student sees: for hidden tests, the kind of failure only.
 
-
-def _describe_failure(exc: BaseException, hidden: bool) -> str:
-    if isinstance(exc, (StudentCallError, Feedback)):
-        return str(exc)
+    A hidden test's own text (assertion messages, the student's exception text, shapes)
+    could carry its hidden inputs, so none of it is shown.
+    """
     if hidden:
+        if isinstance(exc, StudentRaised):
+            return exc.short
+        if isinstance(exc, StudentCallError):  # timeouts, budget: fixed texts
+            return exc.generic or str(exc)[:300]
+        if isinstance(exc, Feedback):
+            return "wrong type, shape or dtype of the result"
         return "wrong result" if isinstance(exc, AssertionError) else "error in the test"
+    if isinstance(exc, (StudentCallError, Feedback)):
+        return _bounded(str(exc), 2000)
     if isinstance(exc, AssertionError):
         frames = [f for f in traceback.extract_tb(exc.__traceback__) if f.filename.startswith("<")]
         where = f" (line {frames[-1].lineno} of the test)" if frames else ""
-        return (str(exc).strip() or "assertion failed") + where
-    return f"{type(exc).__name__}: {exc}"
+        return _bounded(str(exc).strip() or "assertion failed", 2000) + where
+    return _bounded(f"{type(exc).__name__}: {exc}", 2000)
 
 
 class Autograder:
@@ -371,8 +432,10 @@ class Autograder:
             authoring.Question(
                 q["name"],
                 q["points"],
-                [authoring.TestSpec(t["name"], tuple(t["params"]), t["hidden"], t["weight"])
-                 for t in q["tests"]],
+                [
+                    authoring.TestSpec(t["name"], tuple(t["params"]), t["hidden"], t["weight"])
+                    for t in q["tests"]
+                ],
             )
             for q in self.config["questions"]
         ]
@@ -395,81 +458,81 @@ class Autograder:
         values = {**self.config.get("limits", {}), **(overrides or {})}
         return dataclasses.replace(Limits(), **values)
 
-    def hide_paths(self, *extra) -> tuple[str, ...]:
-        paths = [str(self.directory)]
-        if self.config.get("source_dir"):
-            paths.append(self.config["source_dir"])
-        return tuple(paths) + tuple(str(p) for p in extra)
-
-    @property
-    def jax_cache(self) -> str | None:
-        """The trusted JAX compilation cache (assignments that preload jax)."""
-        if "jax" not in self.config.get("preload", []) or not self.config.get("questions"):
-            return None
-        return str(self.directory / "jax-cache")
-
-    def warm_cache(self) -> None:
-        """Fill the JAX cache by grading the reference solution once (trusted code)."""
-        cache = self.jax_cache
-        if cache and not os.path.exists(os.path.join(cache, ".warm")):
-            self.grade_cells(self.solution_cells(), label="reference", trusted=True)
-
-    def grade_cells(self, cells, *, label="submission", hide=(), limits=None,
-                    public_only=False, trusted=False, confine=True) -> GradeResult:
-        """Grade a list of code-cell sources (the student's code).
-
-        `trusted=True` (the reference solution only) lets the run write the JAX cache.
-        With `confine` (default) untrusted code only runs where the sandbox can confine it
-        (`IsolationUnavailable` otherwise); `check` turns it off: a student checking their
-        own notebook runs only their own code.
-        """
-        if confine and not trusted:
-            require_confinement()
-        started = time.perf_counter()
-        if not trusted:
-            self.warm_cache()
-        session = StudentSession(
+    def session(self, cells, limits=None) -> StudentSession:
+        return StudentSession(
             cells,
             self.limits(limits),
-            hide=self.hide_paths(*hide),
             preload=tuple(self.config.get("preload", ["numpy"])),
             x64=bool(self.config.get("x64", True)),
-            jax_cache=self.jax_cache,
-            trusted=trusted,
+            forbid=tuple(self.config.get("forbid", [])),
         )
+
+    def grade_cells(
+        self, cells, *, label="submission", limits=None, public_only=False
+    ) -> GradeResult:
+        """Grade a list of code-cell sources (the student's code) in the sandbox.
+
+        All public tests run before any hidden test.
+        """
+        prot = require_confinement()
+        started = time.perf_counter()
+        session = self.session(cells, limits)
         results = []
         try:
             try:
                 session.start()
             except StudentCallError as exc:  # cannot start at all: every test fails, we go on
-                session.notes.append(str(exc))
-            for question in self.questions:
-                results.append(self._grade_question(question, session, public_only))
+                session._note(str(exc))
+            # Every public test before any hidden one: a public test's feedback shows what
+            # the student's code returns or raises, which must not carry hidden inputs kept
+            # from an earlier hidden call in the same process.
+            public = [self._grade_question(q, session, "public") for q in self.questions]
+            hidden = [
+                self._grade_question(q, session, "hidden")
+                for q in self.questions
+                if not public_only
+            ]
+            for i, q in enumerate(self.questions):
+                done = {t.name: t for t in public[i].tests + (hidden[i].tests if hidden else [])}
+                tests = [done[t.name] for t in q.tests if t.name in done]
+                results.append(QuestionResult(q.name, q.points, tests))
         finally:
             session.close()
-        if trusted and self.jax_cache:
-            pathlib.Path(self.jax_cache, ".warm").touch()
-        protections = detect_protections().describe()
-        if not detect_protections().mount_namespace and os.stat(self.directory).st_mode & 0o077:
-            protections.append(f"warning: {self.directory} is readable by other users")
-        if session.sandbox.not_hidden:
-            protections.append(f"could not hide (contain the interpreter or temp dir): "
-                               f"{', '.join(session.sandbox.not_hidden)}")
-        return GradeResult(label, results, session.notes, protections,
-                           time.perf_counter() - started)
+        return GradeResult(
+            label,
+            results,
+            session.notes,
+            prot.describe(),
+            time.perf_counter() - started,
+            session.infrastructure_error,
+        )
 
-    def _grade_question(self, question, session, public_only) -> QuestionResult:
+    def _grade_question(self, question, session, which="all", rename=None) -> QuestionResult:
+        """Run a question's tests (`which`: "all", "public" or "hidden")."""
         namespace = self._namespaces[question.name]
-        tests = [t for t in question.tests if not (public_only and t.hidden)]
-        present = session.defined(question.functions) if question.functions else {}
+        rename = rename or {}
+        tests = [t for t in question.tests if which == "all" or t.hidden == (which == "hidden")]
+        names = [rename.get(f, f) for f in question.functions]
+        present = (
+            dict(zip(question.functions, session.defined(names).values(), strict=True))
+            if names
+            else {}
+        )
         out = []
         for spec in tests:
             missing = [p for p in spec.params if not present.get(p, False)]
             if missing:
-                out.append(TestResult(spec.name, spec.hidden, False, spec.weight,
-                                      f"`{missing[0]}` is not defined as a function"))
+                out.append(
+                    TestResult(
+                        spec.name,
+                        spec.hidden,
+                        False,
+                        spec.weight,
+                        f"`{missing[0]}` is not defined as a function",
+                    )
+                )
                 continue
-            proxies = [StudentFunction(session, p) for p in spec.params]
+            proxies = [StudentFunction(session, rename.get(p, p)) for p in spec.params]
             try:
                 namespace[spec.name](*proxies)
             except Exception as exc:  # a failing test, whatever the reason
@@ -479,181 +542,34 @@ class Autograder:
                 out.append(TestResult(spec.name, spec.hidden, True, spec.weight))
         return QuestionResult(question.name, question.points, out)
 
+    def empty_result(self, label: str, note: str, error: str | None = None) -> GradeResult:
+        """Zero on every question, with the reason (unreadable notebook, grader failure)."""
+        empty = [
+            QuestionResult(
+                q.name,
+                q.points,
+                [TestResult(t.name, t.hidden, False, t.weight, "") for t in q.tests],
+            )
+            for q in self.questions
+        ]
+        return GradeResult(label, empty, [note], detect_protections().describe(), 0.0, error)
+
     def grade(self, submission, **kwargs) -> GradeResult:
         """Grade a submitted notebook (path)."""
-        path = pathlib.Path(submission).resolve()
+        path = pathlib.Path(submission)
+        label = _bounded(path.name, 200)
         try:
+            info = os.lstat(path)
+            if not stat.S_ISREG(info.st_mode):  # a FIFO would block, a link could point anywhere
+                raise ValueError("not a regular file")
+            size = info.st_size
+            if size > MAX_NOTEBOOK_BYTES:
+                raise ValueError(
+                    f"the notebook is too large ({size / 2**20:.0f} MB; at most "
+                    f"{MAX_NOTEBOOK_BYTES // 2**20} MB)"
+                )
             notebook = authoring.read_notebook(path)
             cells = authoring.student_code_cells(notebook)
         except Exception as exc:  # unreadable notebook: zero, with the reason
-            empty = [QuestionResult(q.name, q.points,
-                                    [TestResult(t.name, t.hidden, False, t.weight, "")
-                                     for t in q.tests]) for q in self.questions]
-            return GradeResult(path.name, empty, [f"could not read the notebook: {exc}"],
-                               detect_protections().describe(), 0.0)
-        hide = (*kwargs.pop("hide", ()), str(path.parent))
-        return self.grade_cells(cells, label=path.name, hide=hide, **kwargs)
-
-
-def write_autograder(assignment: authoring.Assignment, directory, *, source=None) -> pathlib.Path:
-    """Write the autograder directory (mode 0700: only the grader's user may read it)."""
-    directory = pathlib.Path(directory)
-    if directory.exists():
-        shutil.rmtree(directory)
-    (directory / "tests").mkdir(parents=True)
-    questions = []
-    for q in assignment.questions:
-        (directory / "tests" / f"{q.name}.py").write_text("\n\n".join(q.full_source) + "\n")
-        questions.append({
-            "name": q.name,
-            "points": q.points,
-            "tests": [dataclasses.asdict(t) for t in q.tests],
-        })
-    options = {k: v for k, v in assignment.config.items() if k in ("preload", "x64", "limits")}
-    config = {
-        "format": FORMAT,
-        "assignment": assignment.name,
-        "questions": questions,
-        "source_dir": str(pathlib.Path(source).resolve().parent) if source else None,
-        **options,
-    }
-    (directory / "config.json").write_text(json.dumps(config, indent=1) + "\n")
-    (directory / "solution.json").write_text(json.dumps(assignment.solution_cells, indent=1))
-    for root, _dirs, files in os.walk(directory):
-        os.chmod(root, 0o700)
-        for f in files:
-            os.chmod(os.path.join(root, f), 0o600)
-    return directory
-
-
-@dataclasses.dataclass
-class AssignResult:
-    student_notebook: pathlib.Path
-    autograder: pathlib.Path
-    reference: GradeResult | None
-    blank: GradeResult | None
-
-
-def assign(source, out, *, verify=True, limits=None) -> AssignResult:
-    """Split an instructor notebook into `out/student/NAME.ipynb` and `out/autograder/`.
-
-    With `verify` (default), the reference solution must pass every test (public and
-    hidden) and the unsolved student notebook must not get full marks on any question;
-    otherwise `AuthoringError`.
-    """
-    assignment = authoring.parse_notebook(source)
-    authoring.check_student_notebook(assignment)
-    out = pathlib.Path(out)
-    grader_dir = write_autograder(assignment, out / "autograder", source=source)
-    student_path = out / "student" / f"{assignment.name}.ipynb"
-    student_path.parent.mkdir(parents=True, exist_ok=True)
-    authoring.write_notebook(assignment.student, student_path)
-    reference = blank = None
-    if verify:
-        grader = Autograder(grader_dir)
-        reference = grader.grade_cells(grader.solution_cells(), label="reference", limits=limits,
-                                       trusted=True)
-        failures = [
-            f"{q.name}.{t.name}: {t.message or 'failed'}"
-            for q in reference.questions for t in q.tests if not t.passed
-        ]
-        if failures:
-            detail = "\n".join(failures + reference.notes)
-            raise authoring.AuthoringError(f"tests fail on the reference solution:\n{detail}")
-        blank = grader.grade_cells(
-            authoring.student_code_cells(assignment.student), label="blank", limits=limits
-        )
-        full = [q.name for q in blank.questions if q.score >= q.points]
-        if full:
-            raise authoring.AuthoringError(
-                f"the unsolved student notebook gets full marks on {full}: tests cannot fail"
-            )
-    return AssignResult(student_path, grader_dir, reference, blank)
-
-
-def check(notebook, *, limits=None) -> GradeResult:
-    """Run the public tests embedded in a student notebook on that notebook."""
-    path = pathlib.Path(notebook).resolve()
-    nb = authoring.read_notebook(path)
-    meta = nb["metadata"].get("gfxlab", {})
-    if "questions" not in meta:
-        raise authoring.AuthoringError(f"{path} is not a gfxlab assignment notebook")
-    sources = {}
-    for cell in nb["cells"]:
-        name = cell["metadata"].get("gfxlab", {}).get("tests")
-        if cell["cell_type"] == "code" and name:
-            sources[name] = cell["source"]
-    questions = []
-    for q in meta["questions"]:
-        question = authoring.Question(q["name"], q["points"])
-        authoring._split_tests(sources.get(q["name"], ""), question, False, 1.0)
-        questions.append(question)
-    grader = Autograder.__new__(Autograder)
-    grader.directory = path.parent
-    grader.config = {"assignment": meta.get("assignment", path.stem), "questions": []}
-    grader.questions = [q for q in questions if q.tests]
-    grader._namespaces = {q.name: load_tests(sources[q.name], q.name) for q in grader.questions}
-    return grader.grade_cells(authoring.student_code_cells(nb), label=path.name, limits=limits,
-                              confine=False)
-
-
-def _grade_one(args):
-    autograder_dir, submission, limits = args
-    grader = _pool_grader(autograder_dir)
-    try:
-        return grader.grade(submission, limits=limits)
-    except Exception as exc:  # never lose a submission: report it with zero
-        return GradeResult(pathlib.Path(submission).name, [], [f"grader error: {exc!r}"], [], 0.0)
-
-
-_GRADERS: dict[str, Autograder] = {}
-
-
-def _pool_grader(directory) -> Autograder:
-    if directory not in _GRADERS:
-        _GRADERS[directory] = Autograder(directory)
-    return _GRADERS[directory]
-
-
-def grade_many(submissions, autograder_dir, out_dir, *, jobs=None, limits=None):
-    """Grade many notebooks in parallel (a process pool sized to the cores).
-
-    Writes `out_dir/<name>/results.json` per submission and `out_dir/summary.csv`;
-    returns the `GradeResult`s in input order.
-    """
-    submissions = [str(pathlib.Path(s).resolve()) for s in submissions]
-    jobs = jobs or os.cpu_count() or 1
-    directory = str(pathlib.Path(autograder_dir).resolve())
-    require_confinement()
-    grader = Autograder(directory)
-    grader.warm_cache()  # once, before the pool, so parallel graders never race on it
-    tasks = [(directory, s, limits) for s in submissions]
-    if jobs == 1 or len(submissions) == 1:
-        results = [_grade_one(t) for t in tasks]
-    else:
-        context = multiprocessing.get_context("spawn")
-        with concurrent.futures.ProcessPoolExecutor(jobs, mp_context=context) as pool:
-            results = list(pool.map(_grade_one, tasks))
-    out_dir = pathlib.Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    names = [q.name for q in grader.questions]
-    with open(out_dir / "summary.csv", "w", newline="") as f:
-        writer = csv.writer(f)
-        writer.writerow(["submission", *names, "total", "max", "seconds", "notes"])
-        for path, result in zip(submissions, results, strict=True):
-            stem = pathlib.Path(path).stem
-            (out_dir / stem).mkdir(exist_ok=True)
-            (out_dir / stem / "results.json").write_text(
-                json.dumps(result.to_gradescope(), indent=1)
-            )
-            scores = {q.name: f"{q.score:.2f}" for q in result.questions}
-            writer.writerow([
-                pathlib.Path(path).name, *[scores.get(n, "0.00") for n in names],
-                f"{result.score:.2f}", f"{grader_max(grader):g}", f"{result.seconds:.2f}",
-                " | ".join(result.notes)[:500],
-            ])
-    return results
-
-
-def grader_max(grader: Autograder) -> float:
-    return sum(q.points for q in grader.questions)
+            return self.empty_result(label, f"could not read the notebook: {_bounded(exc, 300)}")
+        return self.grade_cells(cells, label=label, **kwargs)

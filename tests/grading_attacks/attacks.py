@@ -157,6 +157,9 @@ def midpoint_circle_trace(r):
     "fork_bomb": """
 import os
 
+with open("/proc/self/comm", "w") as _comm:  # every process it forks is visible by name
+    _comm.write({comm!r})
+
 
 def midpoint_circle_trace(r):
     while True:
@@ -185,6 +188,279 @@ def midpoint_circle_trace(r):
     with socket.create_connection(("127.0.0.1", {port}), timeout=1) as s:
         return [tuple(row) for row in json.loads(s.recv(65536).decode())]
 """,
+    # Find the checkout through the mount table and read solutions, hidden tests, .git.
+    "mountinfo_checkout": """
+import glob
+import json
+import os
+
+
+def _paths():
+    found = {{{checkout!r}, {autograder!r}}}
+    for line in open("/proc/self/mountinfo"):
+        parts = line.split()
+        found.update(p for p in parts[3:5] if p.startswith("/"))
+    return found
+
+
+def _steal():
+    for root in _paths():
+        for pattern in ("labs/assignments/*.ipynb", "../labs/assignments/*.ipynb", ".git/HEAD",
+                        "../.git/HEAD", "solution.json", "*/solution.json"):
+            for path in glob.glob(os.path.join(root, pattern)):
+                try:
+                    text = open(path).read()
+                except OSError:
+                    continue
+                if "def midpoint_circle_trace" in text:
+                    for cell in json.loads(text).get("cells", []) if path.endswith("ipynb") \
+                            else [{{"source": c}} for c in json.loads(text)]:
+                        src = "".join(cell["source"])
+                        if src.lstrip().startswith("def midpoint_circle_trace"):
+                            namespace = {{}}
+                            exec(src.replace("# BEGIN SOLUTION", "").replace("# END SOLUTION", ""),
+                                 namespace)
+                            return namespace["midpoint_circle_trace"]
+    raise RuntimeError("nothing to steal")
+
+
+def midpoint_circle_trace(r):
+    return _steal()(r)
+""",
+    # Load compiled programs from a JAX compilation cache written by instructor runs.
+    "jax_cache": """
+import glob
+import os
+
+
+def midpoint_circle_trace(r):
+    caches = glob.glob("/tmp/**/jax*cache*", recursive=True) + glob.glob(
+        os.path.expanduser("~/.cache/jax*")) + glob.glob("/root/.cache/*")
+    for cache in caches:
+        for entry in glob.glob(cache + "/*"):
+            if os.path.getsize(entry) > 0:
+                return [(-9, 1, 10)] * 7
+    raise RuntimeError("no cache")
+""",
+    # Leave code for the next student in shared places (SysV shm, /dev/shm, /tmp, ...).
+    "ipc_1_writer": """
+import ctypes
+import json
+import os
+
+for place in ("/dev/shm", "/tmp", "/var/tmp", "/run/lock", "/run/shm"):
+    try:
+        with open(os.path.join(place, "gfxlab-attack-marker"), "w") as f:
+            f.write("leaked")
+    except OSError:
+        pass
+try:
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.shmat.restype = ctypes.c_void_p
+    shmid = libc.shmget(0x6766786C, 4096, 0o1666)
+    address = libc.shmat(shmid, None, 0) if shmid >= 0 else None
+    if address not in (None, ctypes.c_void_p(-1).value):
+        ctypes.memmove(address, b"leaked", 6)
+except Exception:
+    pass
+
+
+def midpoint_circle_trace(r):
+    x, y, p = 0, r, 1 - r
+    rows = []
+    while x < y:
+        x += 1
+        if p >= 0:
+            y -= 1
+        rows.append((p, x, y))
+        p += 2 * x + 1 if p < 0 else 2 * x + 1 - 2 * y
+    return rows
+""",
+    "ipc_2_reader": """
+import ctypes
+import os
+
+
+def _found():
+    for place in ("/dev/shm", "/tmp", "/var/tmp", "/run/lock", "/run/shm"):
+        if os.path.exists(os.path.join(place, "gfxlab-attack-marker")):
+            return True
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.shmget(0x6766786C, 4096, 0o666) >= 0
+    except Exception:
+        return False
+
+
+def midpoint_circle_trace(r):
+    if not _found():
+        raise RuntimeError("nothing left by another student")
+    return [(-9, 1, 10), (-6, 2, 10), (-1, 3, 10), (6, 4, 9), (-3, 5, 9), (8, 6, 8), (5, 7, 7)]
+""",
+    # Processes that outlive the call, each under the memory limit.
+    "fork_memory": """
+import os
+import time
+
+with open("/proc/self/comm", "w") as _comm:  # every process it forks is visible by name
+    _comm.write({comm!r})
+
+
+def midpoint_circle_trace(r):
+    for _ in range(3):
+        try:
+            if os.fork() == 0:
+                hoard = bytearray(64 * 2**20)
+                while True:
+                    time.sleep(1)
+        except OSError:
+            pass
+    return None
+""",
+    # Print the hidden inputs through exceptions, and encode them in a returned shape.
+    "leak_arguments": """
+import numpy as np
+
+
+def midpoint_circle_trace(r):
+    if r == 10:
+        return np.zeros((r * 1000 + 7, 1), dtype=int)
+    raise ValueError(f"LEAKED-ARGUMENT {{r!r}} " + "x" * 10_000_000)
+""",
+    # A hard-coded answer to the public test.
+    "constant": """
+def midpoint_circle_trace(r):
+    return [(-9, 1, 10), (-6, 2, 10), (-1, 3, 10), (6, 4, 9), (-3, 5, 9), (8, 6, 8), (5, 7, 7)]
+""",
+    # Forge a reply with the request's id, taken from the worker's stack: absurd shapes.
+    "absurd_shape": """
+import inspect
+import json
+import struct
+
+
+def midpoint_circle_trace(r):
+    request = next(f.frame.f_locals["request"] for f in inspect.stack()
+                   if "request" in f.frame.f_locals)
+    value = {{"a": "int64", "s": [0, 2**62, 2**62], "b": "", "g": False}}
+    body = json.dumps({{"id": request["id"], "ok": True, "value": value}}).encode()
+    for fd in range(3, 64):
+        try:
+            os.write(fd, struct.pack(">I", len(body)) + body)
+        except OSError:
+            pass
+    return [(-9, 1, 10)]
+
+
+import os
+""",
+    # A forged error reply of tens of MB with odd types.
+    "huge_error_reply": """
+import inspect
+import json
+import os
+import struct
+
+
+def midpoint_circle_trace(r):
+    request = next(f.frame.f_locals["request"] for f in inspect.stack()
+                   if "request" in f.frame.f_locals)
+    body = json.dumps({{"id": request["id"], "ok": False, "error": "E" * 60_000_000}}).encode()
+    for fd in range(3, 64):
+        try:
+            os.write(fd, struct.pack(">I", len(body)) + body)
+        except OSError:
+            pass
+    raise RuntimeError("x" * 50_000_000)
+""",
+    # Die by a real-time signal (no name in `signal.Signals`).
+    "realtime_signal": """
+import os
+import signal
+
+
+def midpoint_circle_trace(r):
+    os.kill(os.getpid(), signal.SIGRTMIN + 3)
+""",
+    # Right answers, each just under the per-call timeout: bounded by the budget.
+    "slow_calls": """
+import time
+
+
+def midpoint_circle_trace(r):
+    time.sleep(1.9)
+    x, y, p = 0, r, 1 - r
+    rows = []
+    while x < y:
+        x += 1
+        if p >= 0:
+            y -= 1
+        rows.append((p, x, y))
+        p += 2 * x + 1 if p < 0 else 2 * x + 1 - 2 * y
+    return rows
+""",
+    # A slow top-level cell, then a crash on every call: every restart replays the cell
+    # (the grader stops calling a function that crashed, so this stays short).
+    "crash_replay": """
+import os
+import time
+
+time.sleep(1.5)
+
+
+def midpoint_circle_trace(r):
+    os._exit(3)
+""",
+    # Keep hidden inputs seen by q1 and show them through q2's public feedback later.
+    "leak_via_public": """
+SEEN = []
+
+
+def _leaky_octant(r):
+    hidden = [x for x in SEEN if x not in (10, 3)]
+    if hidden:
+        raise ValueError(f"LEAKED-ARGUMENT {{hidden}}")
+    raise ValueError("nothing hidden seen yet")
+
+
+def midpoint_circle_trace(r):
+    SEEN.append(r)
+    globals()["midpoint_circle_octant"] = _leaky_octant
+    globals()["circle_points"] = lambda xc, yc, r: _leaky_octant(r)
+    return None
+""",
+    # Spell hidden inputs in an exception class name and in the exit status.
+    "leak_exit_status": """
+import os
+
+
+def midpoint_circle_trace(r):
+    if r == 2:
+        os._exit(100 + r)
+    if r not in (10, 3):
+        raise type(f"R{{r}}", (Exception,), {{}})("x")
+    return None
+""",
+    # Children each under the per-process memory limit, together over the submission's.
+    "memory_spread": """
+import os
+import time
+
+with open("/proc/self/comm", "w") as _comm:  # every process it forks is visible by name
+    _comm.write({comm!r})
+
+
+def midpoint_circle_trace(r):
+    time.sleep(60)
+
+
+for _ in range(7):
+    if os.fork() == 0:
+        hoard = b"x" * (200 * 2**20)  # written: resident; each child under RLIMIT_AS
+        time.sleep(60)
+        os._exit(0)
+time.sleep(60)
+""",
     # A top-level endless loop in its own cell, before the functions.
     "toplevel_loop": """
 while True:
@@ -194,11 +470,20 @@ while True:
 
 # Attacks that replace no function: q1 is left unsolved instead.
 TOPLEVEL = {"toplevel_loop"}
+# Attacks that only get their honest part: q1 solved (the writer) -> full marks.
+HONEST_Q1 = {"ipc_1_writer"}
+# Attacks bounded by the submission's time budget: q2 and q3 may lose their marks too.
+BUDGET = {"slow_calls"}
+# Attacks that break their own q2/q3 to leak through them: only q1 and leaks are checked.
+LEAK_ONLY = {"leak_via_public"}
+
+
+COMM = "gfxlab-attack"  # the process name of attacks that fork: must not outlive grading
 
 
 def submission_cells(reference_cells, attack, **context):
     """The reference solution's cells with the q1 function replaced by the attack."""
-    code = ATTACKS[attack].format(**context)
+    code = ATTACKS[attack].format(comm=COMM, **context)
     cells = []
     for cell in reference_cells:
         if TARGET in cell:
@@ -216,8 +501,14 @@ def write_notebook(cells, path):
     """A minimal nbformat-4 notebook holding `cells` as code cells."""
     nb = {
         "cells": [
-            {"cell_type": "code", "id": f"c{i}", "metadata": {}, "source": src,
-             "outputs": [], "execution_count": None}
+            {
+                "cell_type": "code",
+                "id": f"c{i}",
+                "metadata": {},
+                "source": src,
+                "outputs": [],
+                "execution_count": None,
+            }
             for i, src in enumerate(cells)
         ],
         "metadata": {},

@@ -1,0 +1,389 @@
+"""`assign`, `check` and `grade_many`: what the command line does.
+
+`assign` writes the student notebook and the autograder directory and proves the tests:
+the reference solution passes every test, and neither the unsolved notebook nor any
+generated wrong answer (`gfxlab.grading.mutants`) earns a mark. `check` runs a notebook's
+public test cells, and `grade_many` grades a folder in parallel; both run all student
+code (and, for `check`, the notebook's own test cells) in the sandbox.
+"""
+
+from __future__ import annotations
+
+import ast
+import concurrent.futures
+import csv
+import dataclasses
+import importlib.util
+import json
+import multiprocessing
+import os
+import pathlib
+import re
+import shutil
+import sys
+
+from . import authoring, mutants
+from .grader import Autograder, GradeResult, QuestionResult, TestResult, _bounded
+from .sandbox import detect_protections, require_confinement
+
+FORMAT = 2
+
+
+def _imports(source: str) -> set[str]:
+    """Top-level module names a test source imports (anywhere in it)."""
+    names = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            names.update(a.name.split(".")[0] for a in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names.add(node.module.split(".")[0])
+    return names
+
+
+def check_libraries(assignment: authoring.Assignment) -> list[str]:
+    """Modules the tests import, all importable here; `AuthoringError` naming a missing one."""
+    needed = set()
+    for q in assignment.questions:
+        for source in q.full_source:
+            for name in sorted(_imports(source)):
+                if importlib.util.find_spec(name) is None:
+                    raise authoring.AuthoringError(
+                        f"the tests of {q.name} import `{name}`, which the grading environment "
+                        "lacks: install it (a test must never pass for want of a library)"
+                    )
+                needed.add(name)
+    return sorted(needed)
+
+
+def write_autograder(assignment: authoring.Assignment, directory) -> pathlib.Path:
+    """Write the autograder directory (mode 0700: only the grader's user may read it)."""
+    directory = pathlib.Path(directory)
+    if directory.exists():
+        shutil.rmtree(directory)
+    (directory / "tests").mkdir(parents=True)
+    questions = []
+    for q in assignment.questions:
+        (directory / "tests" / f"{q.name}.py").write_text("\n\n".join(q.full_source) + "\n")
+        questions.append(
+            {
+                "name": q.name,
+                "points": q.points,
+                "tests": [dataclasses.asdict(t) for t in q.tests],
+            }
+        )
+    options = {
+        k: v for k, v in assignment.config.items() if k in ("preload", "x64", "limits", "forbid")
+    }
+    config = {
+        "format": FORMAT,
+        "assignment": assignment.name,
+        "questions": questions,
+        "test_imports": check_libraries(assignment),
+        **options,
+    }
+    (directory / "config.json").write_text(json.dumps(config, indent=1) + "\n")
+    (directory / "solution.json").write_text(json.dumps(assignment.solution_cells, indent=1))
+    for root, _dirs, files in os.walk(directory):
+        os.chmod(root, 0o700)
+        for f in files:
+            os.chmod(os.path.join(root, f), 0o600)
+    return directory
+
+
+@dataclasses.dataclass
+class AssignResult:
+    student_notebook: pathlib.Path
+    autograder: pathlib.Path
+    reference: GradeResult | None
+    blank: GradeResult | None
+    mutants: int = 0
+    gradescope: pathlib.Path | None = None
+
+
+def prove_tests(
+    grader: Autograder, assignment: authoring.Assignment, limits=None, *, fail_fast=False
+):
+    """Reference passes everything; blank notebook and wrong answers earn nothing.
+
+    The reference and the wrong answers (`gfxlab.grading.mutants`) share one sandboxed
+    process; the unsolved notebook gets its own. **Returns:** (reference, blank, number of
+    wrong answers); raises `AuthoringError` listing every weak test (the first one only
+    with `fail_fast`).
+    """
+    plan, cell = mutants.plan(grader.questions, grader.solution_cells())
+    reference, weak = mutants.grade_reference_and_mutants(
+        grader, plan, cell, limits, fail_fast=fail_fast
+    )
+    failures = [
+        f"{q.name}.{t.name}: {t.message or 'failed'}"
+        for q in reference.questions
+        for t in q.tests
+        if not t.passed
+    ]
+    if failures:
+        detail = "\n".join(failures + reference.notes)
+        raise authoring.AuthoringError(f"tests fail on the reference solution:\n{detail}")
+    if not (weak and fail_fast):
+        blank = grader.grade_cells(
+            authoring.student_code_cells(assignment.student), label="blank", limits=limits
+        )
+        weak = [
+            f"{q.name}: the unsolved notebook passes {t.name}"
+            for q in blank.questions
+            for t in q.tests
+            if t.passed
+        ] + weak
+    if weak:
+        raise authoring.AuthoringError(
+            "tests too weak: wrong answers earn marks (strengthen these tests):\n" + "\n".join(weak)
+        )
+    return reference, blank, len(plan)
+
+
+def assign(
+    source, out, *, verify_tests=True, limits=None, gradescope=False, fail_fast=False, verify=None
+) -> AssignResult:
+    """Split an instructor notebook into `out/student/NAME.ipynb` and `out/autograder/`.
+
+    With `verify_tests` (default), the reference solution must pass every test (public
+    and hidden), and neither the unsolved student notebook nor any generated wrong answer
+    may pass any test; otherwise `AuthoringError`. With `gradescope`, also writes
+    `out/autograder.zip` for Gradescope (`gfxlab.grading.gradescope`). `fail_fast` stops
+    at the first weak test.
+    """
+    if verify is not None:  # old keyword
+        verify_tests = verify
+    assignment = authoring.parse_notebook(source)
+    authoring.check_student_notebook(assignment)
+    out = pathlib.Path(out)
+    grader_dir = write_autograder(assignment, out / "autograder")
+    student_path = out / "student" / f"{assignment.name}.ipynb"
+    student_path.parent.mkdir(parents=True, exist_ok=True)
+    authoring.write_notebook(assignment.student, student_path)
+    result = AssignResult(student_path, grader_dir, None, None)
+    if verify_tests:
+        grader = Autograder(grader_dir)
+        result.reference, result.blank, result.mutants = prove_tests(
+            grader, assignment, limits, fail_fast=fail_fast
+        )
+    if gradescope:
+        from .gradescope import write_zip
+
+        result.gradescope = write_zip(grader_dir, out / "autograder.zip")
+    return result
+
+
+def check(notebook, *, limits=None) -> GradeResult:
+    """Run the public test cells of a student notebook on that notebook, in the sandbox.
+
+    The test cells come from the notebook (the student may have edited them), so they run
+    inside the sandbox with the student's code; only pass/fail and messages come back.
+    """
+    path = pathlib.Path(notebook).resolve()
+    nb = authoring.read_notebook(path)
+    meta = nb["metadata"].get("gfxlab")
+    if not isinstance(meta, dict) or not isinstance(meta.get("questions"), list):
+        raise authoring.AuthoringError(f"{path} is not a gfxlab assignment notebook")
+    cells = authoring.student_code_cells(nb)
+    tests = authoring.public_test_cells(nb)
+    grader = Autograder.__new__(Autograder)
+    grader.directory = path.parent
+    grader.config = {
+        "assignment": str(meta.get("assignment", path.stem)),
+        "preload": _module_names(meta.get("preload", ["numpy"]))[:10],
+        "forbid": _module_names(meta.get("forbid", []))[:50],
+        "questions": [],
+    }
+    grader.questions, grader._namespaces = [], {}
+    prot = require_confinement()
+    session = grader.session(cells + [_CHECK_HELPER], limits)
+    questions = []
+    try:
+        session.start()
+        for q in meta["questions"][:100]:
+            name = str(q.get("name", "")) if isinstance(q, dict) else ""
+            try:
+                points = float(q.get("points", 0)) if isinstance(q, dict) else 0.0
+            except (TypeError, ValueError):
+                points = 0.0
+            results = []
+            if name in tests:
+                try:
+                    raw = session.sandbox.request(
+                        "call",
+                        session._timeout(session.limits.exec_timeout),
+                        name="_gfxlab_check",
+                        transforms=[],
+                        args=_encode([tests[name], name]),
+                        kwargs=_encode({}),
+                    )
+                except Exception as exc:
+                    raw = [["(public tests)", False, _bounded(str(exc), 500)]]
+                for item in raw if isinstance(raw, list) else []:
+                    if isinstance(item, (list, tuple)) and len(item) == 3:
+                        results.append(
+                            TestResult(
+                                _bounded(item[0], 100),
+                                False,
+                                item[1] is True,
+                                1.0,
+                                _bounded(item[2], 1000),
+                            )
+                        )
+            questions.append(QuestionResult(_bounded(name, 100), points, results))
+    finally:
+        session.close()
+    return GradeResult(
+        _bounded(path.name, 200),
+        questions,
+        session.notes,
+        prot.describe(),
+        0.0,
+        session.infrastructure_error,
+    )
+
+
+def _module_names(value) -> list[str]:
+    """Dotted module names only (the notebook's metadata is the student's to edit)."""
+    if not isinstance(value, list):
+        return []
+    return [m for m in value if isinstance(m, str) and all(p.isidentifier() for p in m.split("."))]
+
+
+def _encode(value):
+    from .codec import encode
+
+    return encode(value)
+
+
+_CHECK_HELPER = """
+def _gfxlab_check(source, question):
+    import gfxlab.grading.checks as _checks
+    import numpy as np
+    namespace = dict(globals())
+    namespace.update(np=np, check_array=_checks.check_array, run_tests=lambda *a, **k: [])
+    exec(compile(source, "<public tests " + question + ">", "exec"), namespace)
+    names = [n for n in namespace if n.startswith("test") and callable(namespace[n])]
+    results = _checks.run_tests(namespace, names, echo=False)
+    return [[str(n), bool(p), str(m)[:1000]] for n, p, m in results]
+"""
+
+
+def _grade_one(args):
+    autograder_dir, submission, label, limits = args
+    try:
+        grader = _pool_grader(autograder_dir)
+        result = grader.grade(submission, limits=limits)
+        result.submission = label
+        return result
+    except Exception as exc:  # never lose a submission: report it, as a grader error
+        return GradeResult(label, [], [], [], 0.0, f"grader error: {exc!r}"[:2000])
+
+
+_GRADERS: dict[str, Autograder] = {}
+
+
+def _pool_grader(directory) -> Autograder:
+    if directory not in _GRADERS:
+        _GRADERS[directory] = Autograder(directory)
+    return _GRADERS[directory]
+
+
+def safe_names(paths) -> list[str]:
+    """One distinct, harmless folder name per submission (never `.`, `..`, or a clash)."""
+    used, out = {"summary.csv", "summary"}, []
+    for path in paths:
+        stem = pathlib.Path(path).name.removesuffix(".ipynb")
+        safe = re.sub(r"[^A-Za-z0-9_-]+", "_", stem).strip("_")[:80] or "submission"
+        name, k = safe, 1
+        while name.lower() in used:
+            k += 1
+            name = f"{safe}-{k}"
+        used.add(name.lower())
+        out.append(name)
+    return out
+
+
+def csv_cell(text) -> str:
+    """A spreadsheet-safe cell: no formula (`=`, `+`, `-`, `@`, tab, CR), bounded."""
+    text = _bounded(str(text), 500).replace("\n", " ")
+    return "'" + text if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
+
+
+def _run_pool(tasks, jobs):
+    if jobs == 1 or len(tasks) == 1:
+        return [_grade_one(t) for t in tasks]
+    results: list = [None] * len(tasks)
+    context = multiprocessing.get_context("spawn")
+    with concurrent.futures.ProcessPoolExecutor(jobs, mp_context=context) as pool:
+        futures = {pool.submit(_grade_one, t): i for i, t in enumerate(tasks)}
+        for future in concurrent.futures.as_completed(futures):
+            i = futures[future]
+            try:
+                results[i] = future.result()
+            except Exception:  # the pool broke (a grader process died): retry below
+                results[i] = None
+    for i, task in enumerate(tasks):
+        if results[i] is None:  # alone in a fresh process, so one cannot stop the rest
+            with concurrent.futures.ProcessPoolExecutor(1, mp_context=context) as pool:
+                try:
+                    results[i] = pool.submit(_grade_one, task).result()
+                except Exception as exc:
+                    results[i] = GradeResult(
+                        task[2], [], [], [], 0.0, f"grader error: {exc!r}"[:2000]
+                    )
+    return results
+
+
+def grade_many(submissions, autograder_dir, out_dir, *, jobs=None, limits=None):
+    """Grade many notebooks in parallel (a process pool sized to the cores).
+
+    Writes `out_dir/<safe name>/results.json` per submission and `out_dir/summary.csv`;
+    returns the `GradeResult`s in input order. A submission the grader fails on gets a
+    results file with `grading_error` set (see `GradeResult.error`).
+    """
+    submissions = [os.path.abspath(s) for s in submissions]  # links are not followed
+    jobs = jobs or os.cpu_count() or 1
+    directory = str(pathlib.Path(autograder_dir).resolve())
+    require_confinement()
+    grader = Autograder(directory)
+    labels = [_bounded(pathlib.Path(s).name, 200) for s in submissions]
+    results = _run_pool(
+        [(directory, s, lb, limits) for s, lb in zip(submissions, labels, strict=True)], jobs
+    )
+    out_dir = pathlib.Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    names = [q.name for q in grader.questions]
+    maximum = sum(q.points for q in grader.questions)
+    with open(out_dir / "summary.csv", "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(
+            ["submission", "folder", *names, "total", "max", "seconds", "grading_error", "notes"]
+        )
+        for folder, result in zip(safe_names(submissions), results, strict=True):
+            (out_dir / folder).mkdir(exist_ok=True)
+            (out_dir / folder / "results.json").write_text(
+                json.dumps(result.to_gradescope(), indent=1)
+            )
+            scores = {q.name: f"{q.score:.2f}" for q in result.questions}
+            writer.writerow(
+                [
+                    csv_cell(result.submission),
+                    folder,
+                    *[scores.get(n, "0.00") for n in names],
+                    f"{result.score:.2f}",
+                    f"{maximum:g}",
+                    f"{result.seconds:.2f}",
+                    csv_cell(result.error or ""),
+                    csv_cell(" | ".join(result.notes)),
+                ]
+            )
+    return results
+
+
+def protections_summary() -> str:
+    return "\n".join(detect_protections().describe())
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(0)
