@@ -60,9 +60,9 @@ def kernel_env(*, cache: bool = True) -> dict[str, str]:
         directory = jax_cache_dir()
         directory.mkdir(parents=True, exist_ok=True)
         env["JAX_COMPILATION_CACHE_DIR"] = str(directory)
-        # Cache every program that took noticeable time to compile (the default, 1 s,
-        # skips most of a lab's many small programs).
-        env.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.1")
+        # Cache every program, however quick to compile (the default, 1 s, would skip
+        # most of a lab's many small ones, which together take most of its time).
+        env.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0")
     return env
 
 
