@@ -1,7 +1,8 @@
 """Command line: `python -m gfxlab COMMAND ...`.
 
 - `labs`: list the labs.
-- `run LAB [--out DIR]`: execute a lab headless and write an HTML copy.
+- `run LAB|all [--out DIR] [--timeout S]`: execute a lab (or every lab) headless and write
+  HTML copies (`all` adds an index page).
 - `assign`, `check`, `grade`: autograded assignments (`gfxlab.grading`).
 - `exam [ID] [--markdown FILE]`: the seed exam, solved step by step (`gfxlab.exam`).
 """
@@ -24,6 +25,7 @@ _USAGE = """usage: python -m gfxlab COMMAND [ARGS]
 commands:
   labs                      list the labs
   run LAB [--out DIR]       execute a lab headless (nbclient) and write an HTML copy
+  run all [--out DIR]       execute every lab; HTML copies plus an index.html gallery
   assign SOURCE.ipynb OUT/  split an instructor notebook into student and autograder parts
   check NOTEBOOK.ipynb      run an assignment's public tests on a student notebook
   grade SUBMISSION --autograder DIR

@@ -1,12 +1,32 @@
-"""The lab runner behind `python -m gfxlab labs` and `python -m gfxlab run LAB`."""
+"""The lab runner behind `python -m gfxlab labs` and `python -m gfxlab run LAB|all`.
+
+`run_lab(path, out_dir)` executes one notebook in a fresh kernel and writes
+`out_dir/<name>.html`; it is what the CLI and the test suite call. A cell that fails
+or runs past the timeout raises `LabError` naming the cell, after the partial HTML
+(everything up to and including that cell) has been written. `run_all` runs every
+lab and writes an `index.html` gallery next to the pages.
+
+The kernels get the JAX persistent compilation cache (`jax_cache_dir()`), so a second
+run of a lab skips most XLA compilation, and `GFXLAB_HEADLESS=1`, which makes
+`interact` show a slider figure's default picture once instead of a widget.
+"""
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import html
 import os
 import pathlib
+import subprocess
 import sys
+import tempfile
 import time
+
+#: Environment variable overriding where the JAX compilation cache lives.
+CACHE_ENV = "GFXLAB_JAX_CACHE"
+#: Set (to "1") in the kernels the runner starts: no live frontend is attached.
+HEADLESS_ENV = "GFXLAB_HEADLESS"
 
 
 def labs_dir() -> pathlib.Path:
@@ -17,13 +37,59 @@ def labs_dir() -> pathlib.Path:
     return pathlib.Path(__file__).resolve().parents[1] / "labs"
 
 
+def jax_cache_dir() -> pathlib.Path:
+    """The user's JAX compilation cache: `$GFXLAB_JAX_CACHE`, else `~/.cache/gfxlab/jax`.
+
+    (`$XDG_CACHE_HOME/gfxlab/jax` when `XDG_CACHE_HOME` is set.) It is private to the
+    user running the labs; nothing else reads it.
+    """
+    env = os.environ.get(CACHE_ENV)
+    if env:
+        return pathlib.Path(env).expanduser()
+    base = os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache"
+    return pathlib.Path(base) / "gfxlab" / "jax"
+
+
+def kernel_env(*, cache: bool = True) -> dict[str, str]:
+    """The environment of a lab kernel: ours, headless, with the JAX cache switched on."""
+    env = dict(os.environ)
+    env[HEADLESS_ENV] = "1"
+    # figures go inline into the notebook, whatever backend the caller uses (e.g. Agg)
+    env["MPLBACKEND"] = "module://matplotlib_inline.backend_inline"
+    if cache:
+        directory = jax_cache_dir()
+        directory.mkdir(parents=True, exist_ok=True)
+        env["JAX_COMPILATION_CACHE_DIR"] = str(directory)
+        # Cache every program, however quick to compile (the default, 1 s, would skip
+        # most of a lab's many small ones, which together take most of its time).
+        env.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0")
+    return env
+
+
+def interact(fn, /, **controls) -> None:
+    """A figure with sliders: `ipywidgets.interact(fn, **controls)` in a live notebook.
+
+    In a headless run (the lab runner, CI) there is nobody to move a slider and the
+    widget's output would not reach the HTML copy, so `fn` is called once with each
+    control's default value (`widget.value`, or the value itself for a fixed argument)
+    and its picture appears once.
+    """
+    if os.environ.get(HEADLESS_ENV) == "1":
+        fn(**{name: getattr(c, "value", c) for name, c in controls.items()})
+        return
+    import ipywidgets
+
+    ipywidgets.interact(fn, **controls)
+
+
 def list_labs(directory: pathlib.Path | None = None) -> list[pathlib.Path]:
     """The numbered lab notebooks, in syllabus order."""
     directory = labs_dir() if directory is None else directory
     return sorted(p for p in directory.glob("[0-9][0-9]_*.ipynb"))
 
 
-def _title(path: pathlib.Path) -> str:
+def lab_title(path: pathlib.Path) -> str:
+    """The first Markdown heading of a notebook (its file name if it has none)."""
     import nbformat
 
     nb = nbformat.read(path, as_version=4)
@@ -52,36 +118,203 @@ def find_lab(name: str, directory: pathlib.Path | None = None) -> pathlib.Path:
     raise LookupError(f"{name!r} {what}; the labs are: {names}")
 
 
-def run_lab(path: pathlib.Path, out_dir: pathlib.Path, *, timeout: int = 600) -> pathlib.Path:
-    """Execute a notebook in a fresh kernel and write `out_dir/<name>.html`.
+class LabError(RuntimeError):
+    """A lab did not run to the end: a cell raised, ran past the timeout, or the kernel died.
 
-    Raises `nbclient.exceptions.CellExecutionError` when a cell fails (the HTML with
-    the error is written first).
+    **Fields:** `lab` (the notebook), `cell_index` (the code cell's position in the
+    notebook, counting every cell from 0, or None), `cell_source`, `reason` (the error
+    or timeout, one line), `html_path` (the partial HTML copy, written before raising),
+    `timed_out`.
+    """
+
+    def __init__(self, lab, cell_index, cell_source, reason, html_path, *, timed_out=False):
+        self.lab = pathlib.Path(lab)
+        self.cell_index = cell_index
+        self.cell_source = cell_source
+        self.reason = reason
+        self.html_path = html_path
+        self.timed_out = timed_out
+        where = "before any cell ran" if cell_index is None else f"in cell {cell_index}"
+        lines = (cell_source or "").strip().splitlines()
+        shown = "\n".join("    " + line for line in lines[:8])
+        if len(lines) > 8:
+            shown += f"\n    ... ({len(lines) - 8} more lines)"
+        message = f"{self.lab.name}: {where}: {reason}"
+        if shown:
+            message += f"\n  the cell:\n{shown}"
+        message += f"\n  partial HTML (outputs up to this cell): {html_path}"
+        super().__init__(message)
+
+
+def _html(nb) -> str:
+    from nbconvert import HTMLExporter
+
+    body, _ = HTMLExporter().from_notebook_node(nb)
+    return body
+
+
+def _note(cell, text: str) -> None:
+    """Append a visible note from the runner to a cell's outputs."""
+    import nbformat
+
+    cell.setdefault("outputs", []).append(
+        nbformat.v4.new_output("stream", name="stderr", text=f"[gfxlab run] {text}\n")
+    )
+
+
+def run_lab(
+    path: pathlib.Path | str,
+    out_dir: pathlib.Path | str,
+    *,
+    timeout: float = 600,
+    cache: bool = True,
+) -> pathlib.Path:
+    """Execute a lab notebook top to bottom in a fresh kernel and write it as HTML.
+
+    **Arguments:**
+
+    - `path`: the `.ipynb` file.
+    - `out_dir`: folder for `<notebook name>.html` (created if missing).
+    - `timeout`: seconds allowed per cell.
+    - `cache`: give the kernel the JAX persistent compilation cache (`jax_cache_dir()`).
+
+    **Returns:** the path of the HTML file.
+
+    **Raises:** `LabError` (naming the cell, with the partial HTML already written) when
+    a cell raises, runs longer than `timeout`, or the kernel dies.
     """
     import nbformat
     from nbclient import NotebookClient
-    from nbclient.exceptions import CellExecutionError
-    from nbconvert import HTMLExporter
+    from nbclient.exceptions import CellExecutionError, CellTimeoutError, DeadKernelError
 
+    path, out_dir = pathlib.Path(path), pathlib.Path(out_dir)
+    if not timeout or timeout <= 0:
+        raise ValueError(f"`timeout` must be a positive number of seconds, got {timeout!r}")
     nb = nbformat.read(path, as_version=4)
+    current: dict = {"index": None}
+
+    def on_cell_start(cell, cell_index, **_):
+        current["index"] = cell_index
+
     client = NotebookClient(
         nb,
-        timeout=timeout,
+        timeout=int(max(1, round(timeout))),
         kernel_name="python3",
-        resources={"metadata": {"path": str(path.parent)}},
+        resources={"metadata": {"path": str(path.parent.resolve())}},
+        on_cell_start=on_cell_start,
     )
     out_dir.mkdir(parents=True, exist_ok=True)
     html_path = out_dir / f"{path.stem}.html"
     failure = None
+    # The kernel's own stderr (start-up warnings, its complaints when stopped at a
+    # timeout) goes to a log that is shown only if the kernel dies.
+    log = tempfile.TemporaryFile(mode="w+b")
     try:
-        client.execute()
+        client.execute(env=kernel_env(cache=cache), stdout=subprocess.DEVNULL, stderr=log)
+    except CellTimeoutError:
+        failure = (
+            f"the cell did not finish within {timeout:g} s (the per-cell timeout; "
+            "raise it with --timeout SECONDS)",
+            True,
+        )
     except CellExecutionError as err:
-        failure = err
-    body, _ = HTMLExporter().from_notebook_node(nb)
-    html_path.write_text(body, encoding="utf-8")
+        failure = (f"{err.ename}: {err.evalue}".strip().splitlines()[0], False)
+    except DeadKernelError as err:
+        log.seek(0)
+        tail = log.read().decode(errors="replace").strip().splitlines()[-5:]
+        failure = (f"the kernel died ({err}); its last words: " + " | ".join(tail), False)
+    finally:
+        log.close()
+    index = current["index"]
+    cell = nb.cells[index] if index is not None else None
+    if failure is not None and cell is not None:
+        _note(cell, "stopped here: " + failure[0])
+    html_path.write_text(_html(nb), encoding="utf-8")
     if failure is not None:
-        raise failure
+        source = cell.source if cell is not None else ""
+        raise LabError(path, index, source, failure[0], html_path, timed_out=failure[1])
     return html_path
+
+
+@dataclasses.dataclass
+class LabRun:
+    """One lab's result in `run_all`: where it was, its HTML, seconds, and any error."""
+
+    lab: pathlib.Path
+    title: str
+    html_path: pathlib.Path | None
+    seconds: float
+    error: LabError | None = None
+
+
+def write_index(out_dir: pathlib.Path, runs: list[LabRun]) -> pathlib.Path:
+    """Write `out_dir/index.html`: one line per lab, linking its executed HTML copy."""
+    rows = []
+    for run in runs:
+        link = run.html_path.name if run.html_path is not None else None
+        title = html.escape(run.title)
+        name = f'<a href="{html.escape(link)}">{title}</a>' if link else title
+        if run.error is None:
+            status = '<span class="ok">ran</span>'
+        else:
+            kind = "timed out" if run.error.timed_out else "failed"
+            where = "" if run.error.cell_index is None else f" in cell {run.error.cell_index}"
+            status = f'<span class="bad">{kind}{where}</span>: {html.escape(run.error.reason)}'
+        rows.append(
+            f"<tr><td>{html.escape(run.lab.stem)}</td><td>{name}</td>"
+            f"<td>{status}</td><td>{run.seconds:.1f} s</td></tr>"
+        )
+    page = f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>gfxlab labs</title>
+<style>
+body {{ font-family: sans-serif; max-width: 60em; margin: 2em auto; }}
+td, th {{ padding: 0.3em 0.8em; text-align: left; border-bottom: 1px solid #ddd; }}
+.ok {{ color: #2a7d2a; }} .bad {{ color: #b00; font-weight: bold; }}
+</style></head><body>
+<h1>gfxlab labs</h1>
+<p>Every lab executed top to bottom, with its figures, animations and videos embedded.
+Generated by <code>python -m gfxlab run all</code>.</p>
+<table><tr><th>lab</th><th>title</th><th>status</th><th>run time</th></tr>
+{chr(10).join(rows)}
+</table></body></html>
+"""
+    path = out_dir / "index.html"
+    path.write_text(page, encoding="utf-8")
+    return path
+
+
+def run_all(
+    out_dir: pathlib.Path | str,
+    *,
+    labs: list[pathlib.Path] | None = None,
+    timeout: float = 600,
+    cache: bool = True,
+    log=None,
+) -> tuple[pathlib.Path, list[LabRun]]:
+    """Run every lab (or `labs`), write their HTML and an `index.html`; never stops early.
+
+    **Returns:** the index path and one `LabRun` per lab (check `.error`).
+    """
+    out_dir = pathlib.Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    runs = []
+    for lab in list_labs() if labs is None else labs:
+        start = time.perf_counter()
+        try:
+            page, error = run_lab(lab, out_dir, timeout=timeout, cache=cache), None
+        except LabError as err:
+            page, error = err.html_path, err
+        runs.append(LabRun(lab, lab_title(lab), page, time.perf_counter() - start, error))
+        if log is not None:
+            log(runs[-1])
+    return write_index(out_dir, runs), runs
+
+
+def _report(run: LabRun) -> None:
+    if run.error is None:
+        print(f"{run.lab.name}: ran in {run.seconds:.1f} s -> {run.html_path}")
+    else:
+        print(f"{run.error}\n", file=sys.stderr)
 
 
 def main(command: str, argv: list[str]) -> int:
@@ -93,29 +326,48 @@ def main(command: str, argv: list[str]) -> int:
             print(f"no labs found in {labs_dir()} (set GFXLAB_LABS to the labs folder)")
             return 1
         for path in labs:
-            print(f"{path.stem:<45} {_title(path)}")
+            print(f"{path.stem:<45} {lab_title(path)}")
         return 0
 
     parser = argparse.ArgumentParser(
         prog="python -m gfxlab run",
-        description="Execute a lab headless in a fresh kernel and write an HTML copy.",
+        description="Execute a lab (or all of them) headless in a fresh kernel and write HTML "
+        "copies; `all` also writes an index.html gallery.",
     )
-    parser.add_argument("lab", help="lab path, number (e.g. 3) or name (e.g. transforms)")
-    parser.add_argument("--out", default="out", help="folder for the HTML copy (default: out/)")
-    parser.add_argument("--timeout", type=int, default=600, help="seconds allowed per cell")
+    parser.add_argument(
+        "lab", help="`all`, or a lab path, number (e.g. 3) or name (e.g. transforms)"
+    )
+    parser.add_argument("--out", default="out", help="folder for the HTML copies (default: out/)")
+    parser.add_argument("--timeout", type=float, default=600, help="seconds allowed per cell")
+    parser.add_argument(
+        "--no-cache",
+        action="store_true",
+        help=f"do not use the JAX compilation cache ({jax_cache_dir()})",
+    )
     args = parser.parse_args(argv)
+    if args.timeout <= 0:
+        parser.error(f"--timeout must be a positive number of seconds, got {args.timeout:g}")
+    out = pathlib.Path(args.out)
+    if args.lab == "all":
+        if not list_labs():
+            print(
+                f"no labs found in {labs_dir()} (set GFXLAB_LABS to the labs folder)",
+                file=sys.stderr,
+            )
+            return 2
+        index, runs = run_all(out, timeout=args.timeout, cache=not args.no_cache, log=_report)
+        failed = [r for r in runs if r.error is not None]
+        print(f"{len(runs) - len(failed)} of {len(runs)} labs ran; index: {index}")
+        return 1 if failed else 0
     try:
         path = find_lab(args.lab)
     except LookupError as err:
         print(err, file=sys.stderr)
         return 2
-    from nbclient.exceptions import CellExecutionError
-
     start = time.perf_counter()
     try:
-        html = run_lab(path, pathlib.Path(args.out), timeout=args.timeout)
-    except CellExecutionError as err:
-        print(f"{path.name}: a cell failed\n{err}", file=sys.stderr)
-        return 1
-    print(f"{path.name}: ran in {time.perf_counter() - start:.1f} s -> {html}")
-    return 0
+        page, error = run_lab(path, out, timeout=args.timeout, cache=not args.no_cache), None
+    except LabError as err:
+        page, error = err.html_path, err
+    _report(LabRun(path, path.stem, page, time.perf_counter() - start, error))
+    return 0 if error is None else 1

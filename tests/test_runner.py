@@ -1,0 +1,157 @@
+"""The lab runner: gallery index, clear errors naming the cell, timeouts, headless sliders.
+
+Uses tiny synthetic notebooks (a kernel start each), never a real lab.
+"""
+
+import base64
+import os
+import pathlib
+import subprocess
+import sys
+
+import nbformat
+import pytest
+
+from gfxlab import _runner
+
+# A 1x1 GIF, to check that animations embedded as <img> survive into the HTML copy.
+GIF = base64.b64encode(
+    bytes.fromhex(
+        "47494638396101000100800000000000ffffff21f90401000000002c00000000010001000002024401003b"
+    )
+).decode()
+
+
+def _notebook(path: pathlib.Path, *codes: str, title: str = "A tiny lab") -> pathlib.Path:
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [nbformat.v4.new_markdown_cell(f"# {title}")]
+    nb.cells += [nbformat.v4.new_code_cell(code) for code in codes]
+    nbformat.write(nb, path)
+    return path
+
+
+@pytest.fixture
+def labs(tmp_path, monkeypatch):
+    folder = tmp_path / "labs"
+    folder.mkdir()
+    monkeypatch.setenv("GFXLAB_LABS", str(folder))
+    monkeypatch.setenv(_runner.CACHE_ENV, str(tmp_path / "jax-cache"))
+    return folder
+
+
+def test_run_all_writes_pages_and_an_index(labs, tmp_path):
+    _notebook(
+        labs / "01_good.ipynb",
+        "import os\nprint('cache:', os.environ['JAX_COMPILATION_CACHE_DIR'])\n"
+        "print('headless:', os.environ['GFXLAB_HEADLESS'])",
+        "from IPython.display import HTML\n"
+        f'HTML(\'<img alt="walk" src="data:image/gif;base64,{GIF}">\')',
+        title="Good lab",
+    )
+    _notebook(
+        labs / "02_bad.ipynb", "x = 1", "raise ValueError('the figure lies')", title="Bad lab"
+    )
+    out = tmp_path / "site"
+    index, runs = _runner.run_all(out, timeout=120)
+
+    assert [r.lab.stem for r in runs] == ["01_good", "02_bad"]
+    good, bad = runs
+    assert good.error is None and good.html_path == out / "01_good.html"
+    page = good.html_path.read_text()
+    assert f"cache: {tmp_path / 'jax-cache'}" in page and "headless: 1" in page
+    assert f"data:image/gif;base64,{GIF}" in page
+    assert (tmp_path / "jax-cache").is_dir()
+
+    assert bad.error is not None and bad.error.cell_index == 2 and not bad.error.timed_out
+    assert "ValueError: the figure lies" in bad.error.reason
+    assert "raise ValueError" in bad.error.cell_source
+    assert (out / "02_bad.html").exists()  # the partial copy
+
+    text = index.read_text()
+    assert index == out / "index.html"
+    assert '<a href="01_good.html">Good lab</a>' in text
+    assert '<a href="02_bad.html">Bad lab</a>' in text
+    assert "failed in cell 2" in text and "ValueError: the figure lies" in text
+
+
+def test_run_lab_names_the_failing_cell(labs, tmp_path):
+    path = _notebook(labs / "03_oops.ipynb", "print('first')", "assert 1 + 1 == 3, 'arithmetic'")
+    with pytest.raises(_runner.LabError) as info:
+        _runner.run_lab(path, tmp_path / "out", timeout=120, cache=False)
+    err = info.value
+    assert err.cell_index == 2 and "AssertionError: arithmetic" in str(err)
+    assert "assert 1 + 1 == 3" in str(err) and str(err.html_path) in str(err)
+    page = err.html_path.read_text()
+    assert "first" in page and "stopped here" in page
+    with pytest.raises(ValueError, match="timeout"):
+        _runner.run_lab(path, tmp_path / "out", timeout=0)
+
+
+def test_cli_timeout_is_a_clear_message_with_partial_html(labs, tmp_path):
+    _notebook(
+        labs / "04_slow.ipynb",
+        "print('done before the slow cell')",
+        "import time\ntime.sleep(60)",
+        "print('never')",
+    )
+    out = tmp_path / "out"
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "gfxlab",
+            "run",
+            "slow",
+            "--timeout",
+            "1",
+            "--out",
+            str(out),
+            "--no-cache",
+        ],
+        capture_output=True,
+        text=True,
+        env=dict(os.environ),
+        timeout=120,
+    )
+    assert proc.returncode == 1
+    assert "Traceback" not in proc.stderr, proc.stderr
+    assert "04_slow.ipynb: in cell 2: the cell did not finish within 1 s" in proc.stderr
+    assert "time.sleep(60)" in proc.stderr and "--timeout" in proc.stderr
+    page = (out / "04_slow.html").read_text()
+    assert "done before the slow cell" in page and "did not finish within 1 s" in page
+    assert "never" not in page.split("time.sleep(60)")[-1].split("stopped here")[0]
+
+
+def test_cli_rejects_a_bad_timeout_and_an_unknown_lab(labs):
+    run = [sys.executable, "-m", "gfxlab", "run"]
+    bad = subprocess.run(run + ["all", "--timeout", "0"], capture_output=True, text=True)
+    assert bad.returncode == 2 and "--timeout must be a positive" in bad.stderr
+    missing = subprocess.run(run + ["nonesuch"], capture_output=True, text=True)
+    assert missing.returncode == 2 and "matches no lab" in missing.stderr
+
+
+def test_jax_cache_dir_is_the_users_and_overridable(monkeypatch, tmp_path):
+    monkeypatch.delenv(_runner.CACHE_ENV, raising=False)
+    monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
+    assert _runner.jax_cache_dir() == pathlib.Path.home() / ".cache" / "gfxlab" / "jax"
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert _runner.jax_cache_dir() == tmp_path / "xdg" / "gfxlab" / "jax"
+    monkeypatch.setenv(_runner.CACHE_ENV, str(tmp_path / "mine"))
+    env = _runner.kernel_env()
+    assert env["JAX_COMPILATION_CACHE_DIR"] == str(tmp_path / "mine")
+    monkeypatch.delenv("JAX_COMPILATION_CACHE_DIR", raising=False)
+    assert "JAX_COMPILATION_CACHE_DIR" not in _runner.kernel_env(cache=False)
+
+
+def test_interact_shows_the_default_picture_once_when_headless(monkeypatch):
+    import ipywidgets
+
+    calls = []
+    monkeypatch.setenv(_runner.HEADLESS_ENV, "1")
+    _runner.interact(
+        lambda a, b, c: calls.append((a, b, c)),
+        a=ipywidgets.FloatSlider(value=0.25, min=0, max=1),
+        b=3,
+        c=ipywidgets.fixed(7),
+    )
+    assert calls == [(0.25, 3, 7)]
