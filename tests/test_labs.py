@@ -1,0 +1,40 @@
+"""Every lab runs top to bottom in a fresh kernel, with its assertions, within its budget.
+
+The labs run through the same runner as `python -m gfxlab run`, so `make test` also
+builds the gallery: each executed lab is written (HTML and executed notebook) into
+`$GFXLAB_LABS_OUT` (a temporary folder when unset), where `make docs` picks the
+notebooks up and `conftest.py` writes the gallery's `index.html` at the end.
+"""
+
+import os
+import pathlib
+import time
+
+import pytest
+
+from gfxlab import _runner
+
+LABS = _runner.list_labs()
+#: Seconds a lab may take in the test run: 30 s on an idle laptop; a shared CI machine
+#: runs two labs at once beside other tests, so the bound here is looser.
+BUDGET = float(os.environ.get("GFXLAB_LAB_BUDGET", "120"))
+
+
+@pytest.fixture(scope="session")
+def labs_out(tmp_path_factory) -> pathlib.Path:
+    out = os.environ.get("GFXLAB_LABS_OUT")
+    return pathlib.Path(out) if out else tmp_path_factory.mktemp("labs")
+
+
+def test_there_are_ten_labs():
+    assert [p.name[:2] for p in LABS] == [f"{i:02d}" for i in range(10)]
+
+
+@pytest.mark.parametrize("lab", LABS, ids=[p.stem for p in LABS])
+def test_lab_runs_top_to_bottom(lab, labs_out):
+    start = time.perf_counter()
+    html = _runner.run_lab(lab, labs_out, timeout=BUDGET)
+    seconds = time.perf_counter() - start
+    assert html.is_file() and html.stat().st_size > 10_000
+    assert (labs_out / lab.name).is_file(), "the executed notebook is kept for the docs"
+    assert seconds < BUDGET, f"{lab.name} took {seconds:.0f} s"
