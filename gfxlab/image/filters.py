@@ -213,16 +213,22 @@ def median_filter(
     **Arguments:**
 
     - `image`: `(H, W)` or `(H, W, C)`, any real dtype.
-    - `size`: window size, an int (square) or `(rows, cols)`; ignored if `footprint` is given.
+    - `size`: window size, an int (square) or `(rows, cols)`; ignored if `footprint` is
+      given. At most `MAX_NETWORK_SIZE` pixels (a documented limit: the network is
+      unrolled into the compiled program).
     - `footprint`: a boolean `(rows, cols)` array selecting the window pixels, e.g.
       `cross_footprint()` (the 5-pixel cross).
     - `mode`: border handling, one of `MODES`: "reflect", "constant", "nearest", "mirror",
       "wrap" (as in `scipy.ndimage`).
-    - `cval`: the value outside the image for `mode="constant"`.
+    - `cval`: the value outside the image for `mode="constant"` (finite; may be traced).
 
     **Returns:**
 
     The filtered image, same shape; same dtype for odd windows, float for even windows.
+
+    >>> img = np.array([[91, 55, 90], [77, 68, 95], [115, 151, 210]], dtype=np.uint8)
+    >>> int(median_filter(img, size=3)[1, 1])  # the seed's 3x3 example
+    91
     """
     image = _check_filter_image(image)
     mode = _check_mode(mode)
@@ -283,7 +289,7 @@ def mean_filter(
     **Arguments:**
 
     - `image`: `(H, W)` or `(H, W, C)`; integer images are converted to float.
-    - `size`: window size, an int or `(rows, cols)`.
+    - `size`: window size, an int or `(rows, cols)`, each at most `2 MAX_KERNEL_RADIUS + 1`.
     - `mode`, `cval`: border handling as in `median_filter`.
 
     **Returns:**
@@ -327,9 +333,10 @@ def gaussian_filter(
     **Arguments:**
 
     - `image`: `(H, W)` or `(H, W, C)`; integer images are converted to float.
-    - `sigma`: standard deviation in pixels (> 0), one value or `(rows, cols)`.
-    - `truncate`: radius in units of sigma when `radius` is not given.
-    - `radius`: kernel radius, an int or `(rows, cols)` (static).
+    - `sigma`: standard deviation in pixels (finite, > 0), one value or `(rows, cols)`.
+    - `truncate`: radius in units of sigma when `radius` is not given (finite, >= 0).
+    - `radius`: kernel radius, an int or `(rows, cols)` (static). Either way the radius
+      is at most `MAX_KERNEL_RADIUS` (a documented limit).
     - `mode`, `cval`: border handling as in `median_filter`.
 
     **Returns:**
