@@ -28,7 +28,8 @@ Example:
     >>> from gfxlab import color
     >>> wl = color.CIE_WAVELENGTHS
     >>> laser = color.line_spectrum(wl, 555.0, power=1.0)  # 1 W at 555 nm
-    >>> color.luminous_efficacy(wl, laser)  # 683 lm/W
+    >>> round(float(color.luminous_efficacy(wl, laser)), 6)  # 683 lm/W
+    683.0
 """
 
 from __future__ import annotations
