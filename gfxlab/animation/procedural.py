@@ -16,7 +16,6 @@ import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float, Int
 
 from .._checks import (
-    as_float,
     check_finite,
     check_last_dim,
     check_shape,
@@ -27,6 +26,9 @@ from .._checks import (
     static_int,
     value_error_if,
 )
+
+# Noise has one owner, gfxlab.image; procedural motion re-exports it.
+from ..image import fractal_noise, gradient_noise, value_noise
 
 __all__ = [
     "Particles",
@@ -397,120 +399,3 @@ def _springs_kernel(position, velocity, anchor, dt, params, *, verlet):
     else:
         _, xs = jax.lax.scan(euler, (position, velocity), anchor)
     return jnp.concatenate([position[None], xs])
-
-
-# ---------------------------------------------------------------- noise
-
-
-def _hash(ints: jax.Array, seed: int) -> jax.Array:
-    """A 32-bit integer hash of lattice coordinates `(..., k)` -> uniform floats in [0, 1)."""
-    h = jnp.full(ints.shape[:-1], (seed * 0x9E3779B9 + 0x85EBCA6B) & 0xFFFFFFFF, jnp.uint32)
-    primes = (0x8DA6B343, 0xD8163841, 0xCB1AB31F)
-    for j in range(ints.shape[-1]):
-        h = h ^ (ints[..., j].astype(jnp.uint32) * jnp.uint32(primes[j]))
-        h = (h ^ (h >> 16)) * jnp.uint32(0x7FEB352D)
-        h = (h ^ (h >> 15)) * jnp.uint32(0x846CA68B)
-        h = h ^ (h >> 16)
-    return (h >> 8).astype(jnp.float32) / float(1 << 24)
-
-
-def _fade(t):
-    # Quintic fade 6t^5 - 15t^4 + 10t^3: C2 across lattice cells.
-    return t * t * t * (t * (6 * t - 15) + 10)
-
-
-def _noise_points(x, name):
-    x = as_float(x, name)
-    if x.ndim == 0:
-        raise ValueError(f"`{name}` must be (..., 1) or (..., 2) positions")
-    check_last_dim(x, name, (1, 2), "1D or 2D noise positions")
-    return x
-
-
-def _corners(dim):
-    return jnp.array([[(c >> j) & 1 for j in range(dim)] for c in range(2**dim)])
-
-
-def _lattice_blend(x, corner_value):
-    # Blend corner contributions of the cell containing x with the fade weights.
-    cell = jnp.floor(jax.lax.stop_gradient(x))
-    f = x - cell
-    w = _fade(f)
-    corners = _corners(x.shape[-1])
-    total = 0.0
-    for c in corners:
-        weight = jnp.prod(jnp.where(c == 1, w, 1 - w), axis=-1)
-        total = total + weight * corner_value(cell.astype(jnp.int32) + c, f - c)
-    return total
-
-
-def value_noise(x: Float[Array, "*batch dim"], *, seed: int = 0) -> Float[Array, "*batch"]:
-    """Value noise in 1D or 2D: random values on the integer lattice, blended smoothly.
-
-    **Arguments:**
-
-    - `x`: `(..., 1)` or `(..., 2)` positions (use `t[..., None]` for a time signal).
-    - `seed`: a Python int choosing the random lattice.
-
-    **Returns:** values in `[-1, 1]`, shape `x.shape[:-1]`; equal to the lattice value at
-    integer points, C2 smooth in between.
-    """
-    x = _noise_points(x, "x")
-    return _value_noise(x, seed=static_int(seed, "seed"))
-
-
-@functools.partial(jax.jit, static_argnames=("seed",))
-def _value_noise(x, *, seed):
-    return _lattice_blend(x, lambda ij, _: 2 * _hash(ij, seed).astype(x.dtype) - 1)
-
-
-def gradient_noise(x: Float[Array, "*batch dim"], *, seed: int = 0) -> Float[Array, "*batch"]:
-    """Gradient (Perlin-style) noise in 1D or 2D.
-
-    Each lattice point holds a random unit gradient; the noise is the faded blend of the
-    linear ramps `g . (x - corner)`, so it is zero at every lattice point and has no
-    visible lattice-scale bumps.
-
-    **Arguments:** as `value_noise`. **Returns:** values roughly in `[-1, 1]`.
-    """
-    x = _noise_points(x, "x")
-    return _gradient_noise(x, seed=static_int(seed, "seed"))
-
-
-@functools.partial(jax.jit, static_argnames=("seed",))
-def _gradient_noise(x, *, seed):
-    dim = x.shape[-1]
-
-    def ramp(ij, offset):
-        angle = 2 * jnp.pi * _hash(ij, seed).astype(x.dtype)
-        if dim == 1:
-            grad = (2 * _hash(ij, seed + 1).astype(x.dtype) - 1)[..., None]
-            return 2 * jnp.sum(grad * offset, axis=-1)
-        grad = jnp.stack([jnp.cos(angle), jnp.sin(angle)], axis=-1)
-        return jnp.sqrt(2.0) * jnp.sum(grad * offset, axis=-1)
-
-    return _lattice_blend(x, ramp)
-
-
-def fractal_noise(
-    x: Float[Array, "*batch dim"],
-    *,
-    octaves: int = 4,
-    lacunarity: float = 2.0,
-    gain: float = 0.5,
-    kind: str = "gradient",
-    seed: int = 0,
-) -> Float[Array, "*batch"]:
-    """Sum of `octaves` noise layers, each `lacunarity` times finer and `gain` times weaker
-    (fractional Brownian motion), normalised to the range of one layer."""
-    octaves = static_int(octaves, "octaves", minimum=1)
-    if kind not in ("gradient", "value"):
-        raise ValueError(f"`kind` must be 'gradient' or 'value', got {kind!r}")
-    noise = gradient_noise if kind == "gradient" else value_noise
-    x = _noise_points(x, "x")
-    total, amplitude, norm = 0.0, 1.0, 0.0
-    for o in range(octaves):
-        total = total + amplitude * noise(x * lacunarity**o, seed=seed + 7919 * o)
-        norm += amplitude
-        amplitude *= gain
-    return total / norm
