@@ -12,7 +12,7 @@ import importlib.resources
 import pathlib
 import shutil
 
-__all__ = ["data_file", "labs_dir", "copy_labs"]
+__all__ = ["data_file", "data_folder", "labs_dir", "copy_labs"]
 
 
 def _folder(package: str) -> pathlib.Path:
@@ -30,6 +30,11 @@ def data_file(*parts: str) -> pathlib.Path:
     if not path.is_file():
         raise FileNotFoundError(f"gfxlab data file {'/'.join(parts)!r} is not installed")
     return path
+
+
+def data_folder(*parts: str) -> pathlib.Path:
+    """The path of a shipped data folder, e.g. `data_folder("color")`."""
+    return _folder("gfxlab._data").joinpath(*parts)
 
 
 def labs_dir() -> pathlib.Path:

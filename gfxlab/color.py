@@ -35,7 +35,6 @@ Example:
 from __future__ import annotations
 
 import functools
-import pathlib
 
 import jax
 import jax.numpy as jnp
@@ -43,6 +42,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from ._checks import check_last_dim, check_shape, finite_float, is_traced, value_error_if
+from ._resources import data_folder
 
 __all__ = [
     "K_M",
@@ -99,7 +99,8 @@ _SRGB_LINEAR_LIMIT = 0.0031308  # linear value where the encoding switches to th
 _C1 = 3.741771e-16  # W m^2
 _C2 = 1.4388e-2  # m K
 
-DATA_DIR = pathlib.Path(__file__).resolve().parents[1] / "data" / "color"
+#: The shipped CIE tables (`data/color/` of the project, `gfxlab._data` in a wheel).
+DATA_DIR = data_folder("color")
 
 
 # --------------------------------------------------------------------------- tables
