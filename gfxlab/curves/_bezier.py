@@ -15,7 +15,7 @@ from ._common import MAX_DEGREE, _check_unit_interval, _control_points, _flat_pa
 
 # Up to this degree the Bernstein recursion is unrolled (XLA fuses it into one pass);
 # above it, a `lax.scan` keeps the program small.
-_UNROLL_DEGREE = 8
+_UNROLL_DEGREE = 3
 
 
 def _bernstein(n: int, u: jax.Array) -> jax.Array:

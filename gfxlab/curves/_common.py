@@ -43,15 +43,25 @@ def _require(x, message: str, bad, *context):
     return x
 
 
-def _outside_unit_interval(u):
-    return ~((u >= 0) & (u <= 1))  # NaN is outside too
+def _require_between(x, lo, hi, message: str):
+    """`x`, after raising `ValueError(message)` unless every entry lies in `[lo, hi]`
+    (NaN does not). Concrete values take two NumPy reductions (no temporaries, fast on
+    10^6 parameters); traced ones go through `value_error_if`."""
+    if is_traced((x, lo, hi)):
+        if x.size == 0:
+            return x
+        # One scalar predicate from two fused reductions (NaN fails both comparisons):
+        # much cheaper under `jit` than a per-entry mask on 10^6 parameters.
+        return value_error_if(x, ~((jnp.min(x) >= lo) & (jnp.max(x) <= hi)), message)
+    values = np.asarray(x)
+    if values.size and not (np.min(values) >= np.asarray(lo) and np.max(values) <= np.asarray(hi)):
+        raise ValueError(message)
+    return x
 
 
 def _check_unit_interval(u: jax.Array, name: str = "u") -> jax.Array:
-    return _require(
-        u,
-        f"`{name}` must lie in [0, 1], the parameter range of a Bezier curve",
-        _outside_unit_interval,
+    return _require_between(
+        u, 0.0, 1.0, f"`{name}` must lie in [0, 1], the parameter range of a Bezier curve"
     )
 
 

@@ -8,7 +8,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._checks import as_float, check_last_dim, check_shape, common_float
-from ._common import _flat_parameters, _unflatten
+from ._common import _flat_parameters, _not_finite, _require, _unflatten
 
 
 def ellipse(
@@ -35,6 +35,12 @@ def ellipse(
     )
     check_last_dim(center, "center", (2,), "the centre (h, k)")
     check_last_dim(radii, "radii", (2,), "the semi-axes (a, b)")
+    center, radii, angle, t = (
+        _require(x, f"`{name}` must be finite (no NaN or inf)", _not_finite)
+        for x, name in zip(
+            (center, radii, angle, t), ("center", "radii", "angle", "t"), strict=True
+        )
+    )
     return _ellipse_kernel(center, radii, angle, t)
 
 
@@ -78,9 +84,18 @@ class Ellipse(eqx.Module):
         check_shape(self.center, "center", (2,))
         check_shape(self.radii, "radii", (2,))
         check_shape(self.angle, "angle", ())
+        self.center, self.radii, self.angle = (
+            _require(x, f"`{name}` must be finite (no NaN or inf)", _not_finite)
+            for x, name in zip(
+                (self.center, self.radii, self.angle), ("center", "radii", "angle"), strict=True
+            )
+        )
 
     def __call__(self, t: Float[ArrayLike, " N"]) -> Float[Array, "N 2"]:
-        return ellipse(self.center, self.radii, self.angle, t)
+        # The fields were checked at construction; inside a fit (where they are traced)
+        # only the kernel runs, so the compiled solver stays small.
+        t = as_float(t, "t")
+        return _ellipse_kernel(self.center, self.radii, self.angle, t)
 
     def normalized(self) -> Ellipse:
         """The same point set with `a >= b >= 0` and `angle` in `[0, pi)`."""

@@ -8,7 +8,14 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._checks import as_float, check_shape, is_traced, static_int
-from ._common import MAX_BSPLINE_DEGREE, MAX_CONTROL_POINTS, _float_dtype, _not_finite, _require
+from ._common import (
+    MAX_BSPLINE_DEGREE,
+    MAX_CONTROL_POINTS,
+    _float_dtype,
+    _not_finite,
+    _require,
+    _require_between,
+)
 
 
 def uniform_knots(num_control_points: int, degree: int, *, dtype=None) -> Float[Array, " m+1"]:
@@ -82,11 +89,11 @@ def parameter_range(
 def _check_in_range(
     u: jax.Array, knots: jax.Array, degree: int, n: int, name: str = "u"
 ) -> jax.Array:
-    return _require(
+    return _require_between(
         u,
+        knots[degree],
+        knots[n],
         f"`{name}` must lie in the B-spline's parameter range [t_p, t_n] (see `parameter_range`)",
-        lambda u, t: ~((u >= t[degree]) & (u <= t[n])),  # NaN is out of range too
-        knots,
     )
 
 

@@ -8,6 +8,7 @@ import math
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._checks import as_float, check_shape, common_float
@@ -46,7 +47,9 @@ def nurbs(
             f"`weights` must have shape {tuple(cp.shape[:-1])} (one per control point), "
             f"got {tuple(weights.shape)}"
         )
-    weights = _require(weights, "`weights` must all be positive", lambda w: w <= 0)
+    weights = _require(
+        weights, "`weights` must all be positive and finite", lambda w: ~((w > 0) & (w < np.inf))
+    )
     n, p = _check_degree(cp.shape[-2], degree)
     if knots is None:
         knots = clamped_knots(n, p, dtype=cp.dtype)
