@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import functools
-import importlib.resources
-import pathlib
 
 import jax
 import jax.numpy as jnp
@@ -12,6 +10,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._checks import as_float, check_shape, common_float, static_int
+from .._resources import data_file
 from ..mesh import Mesh
 from ._bezier import _bernstein
 from ._common import (
@@ -114,21 +113,9 @@ def _grid_faces(num_patches: int, r: int) -> np.ndarray:
     return faces
 
 
-def _data_file(*parts: str):
-    """A shipped data file: from the installed package data (`gfxlab/data/...`) when
-    present, else from the repository's top-level `data/` folder."""
-    try:
-        resource = importlib.resources.files("gfxlab").joinpath("data", *parts)
-        if resource.is_file():
-            return resource
-    except (ModuleNotFoundError, FileNotFoundError):  # pragma: no cover - odd installs
-        pass
-    return pathlib.Path(__file__).resolve().parents[2].joinpath("data", *parts)
-
-
 @functools.lru_cache(maxsize=1)
 def _teapot_data() -> tuple[np.ndarray, np.ndarray]:
-    path = _data_file("teapot", "teapot.txt")
+    path = data_file("teapot", "teapot.txt")
     rows = []
     for line in path.read_text().splitlines():
         line = line.split("#", 1)[0].strip()
