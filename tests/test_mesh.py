@@ -23,7 +23,8 @@ def is_closed_manifold(mesh):
 
 
 @pytest.mark.parametrize(
-    "make", [M.cube, lambda: M.icosphere(2), lambda: M.cylinder(0.7, 1.5, 20)],
+    "make",
+    [M.cube, lambda: M.icosphere(2), lambda: M.cylinder(0.7, 1.5, 20)],
     ids=["cube", "icosphere", "cylinder"],
 )
 def test_convex_meshes_are_closed_outward_and_match_their_hull(make):
@@ -61,8 +62,9 @@ def test_normals():
     np.testing.assert_allclose(jnp.linalg.norm(sphere.face_normals(), axis=-1), 1.0)
     cube = M.cube()
     normals = np.asarray(cube.face_normals())
-    expected = np.repeat(np.array([[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, -1],
-                                   [0, 0, 1]]), 1, axis=0)
+    expected = np.repeat(
+        np.array([[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, -1], [0, 0, 1]]), 1, axis=0
+    )
     np.testing.assert_allclose(normals[:6], expected, atol=1e-12)
     np.testing.assert_allclose(normals[6:], expected, atol=1e-12)
 
@@ -83,9 +85,20 @@ def test_transform_and_colors():
     red = cube.with_colors(jnp.array([1.0, 0.0, 0.0]))
     assert red.colors.shape == (8, 3)
     # a Mesh is a pytree: jit and grad through its vertices
-    area = jax.jit(lambda m: jnp.sum(jnp.linalg.norm(jnp.cross(
-        m.triangles()[:, 1] - m.triangles()[:, 0], m.triangles()[:, 2] - m.triangles()[:, 0]),
-        axis=-1)) / 2)
+    area = jax.jit(
+        lambda m: (
+            jnp.sum(
+                jnp.linalg.norm(
+                    jnp.cross(
+                        m.triangles()[:, 1] - m.triangles()[:, 0],
+                        m.triangles()[:, 2] - m.triangles()[:, 0],
+                    ),
+                    axis=-1,
+                )
+            )
+            / 2
+        )
+    )
     assert float(area(cube)) == pytest.approx(6.0)
 
 
@@ -120,8 +133,9 @@ def test_shipped_model_is_what_the_code_writes(tmp_path):
     # the same statements; numbers equal up to the last printed digit (libm may differ)
     for a, b in zip(ours, theirs, strict=True):
         if a.startswith("v "):
-            np.testing.assert_allclose(np.array(a.split()[1:], float),
-                                       np.array(b.split()[1:], float), atol=1.5e-6)
+            np.testing.assert_allclose(
+                np.array(a.split()[1:], float), np.array(b.split()[1:], float), atol=1.5e-6
+            )
         else:
             assert a == b
     pawn = M.read_obj(shipped)
@@ -226,7 +240,8 @@ def test_mesh_losses_against_numpy():
     length = np.linalg.norm(v[edges[:, 1]] - v[edges[:, 0]], axis=-1)
     assert float(M.edge_length_loss(jnp.asarray(v), f)) == pytest.approx(np.mean(length**2))
     assert float(M.edge_length_loss(jnp.asarray(v), f, target=0.5)) == pytest.approx(
-        np.mean((length - 0.5) ** 2))
+        np.mean((length - 0.5) ** 2)
+    )
     n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
     n /= np.linalg.norm(n, axis=-1, keepdims=True)
     pairs = {}
@@ -235,13 +250,15 @@ def test_mesh_losses_against_numpy():
     cos = [n[i] @ n[j] for i, j in pairs.values()]
     assert float(M.normal_consistency_loss(M.Mesh(v, f))) == pytest.approx(1 - np.mean(cos))
     # under jit (faces traced) and with gradients
-    value, grad = jax.jit(jax.value_and_grad(
-        lambda v, f: M.normal_consistency_loss(v, f) + M.laplacian_loss(v, f)))(jnp.asarray(v), f)
+    value, grad = jax.jit(
+        jax.value_and_grad(lambda v, f: M.normal_consistency_loss(v, f) + M.laplacian_loss(v, f))
+    )(jnp.asarray(v), f)
     assert float(value) == pytest.approx(1 - np.mean(cos) + numpy_laplacian(v, f))
     assert bool(jnp.all(jnp.isfinite(grad)))
     # a flat sheet is perfectly consistent
-    sheet = M.Mesh(jnp.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]),
-                   jnp.array([[0, 1, 2], [0, 2, 3]]))
+    sheet = M.Mesh(
+        jnp.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]), jnp.array([[0, 1, 2], [0, 2, 3]])
+    )
     assert float(M.normal_consistency_loss(sheet)) == pytest.approx(0.0, abs=1e-12)
 
 

@@ -66,8 +66,12 @@ def sphere_scene():
 def test_tiled_rasterizer_equals_dense():
     mesh, camera = sphere_scene()
     shape = (27, 34)
-    kw = dict(sigma=1.5, gamma=0.05, background=jnp.array([0.2, 0.3, 0.4]),
-              light=jnp.array([1.0, 2.0, 3.0]))
+    kw = dict(
+        sigma=1.5,
+        gamma=0.05,
+        background=jnp.array([0.2, 0.3, 0.4]),
+        light=jnp.array([1.0, 2.0, 3.0]),
+    )
     rgba, depth = jax.jit(
         lambda m, c: R.soft_rasterize(m, c, shape, tile_size=8, capacity=80, **kw)
     )(mesh, camera)
@@ -89,8 +93,11 @@ def test_soft_converges_to_zbuffer():
     )
     vertices = centres + rng.normal(0, 0.6, (count, 3, 3)) * np.array([1, 1, 0.02])
     face_colors = rng.uniform(0, 1, (count, 3))
-    mesh = Mesh(jnp.asarray(vertices.reshape(-1, 3)), jnp.arange(3 * count).reshape(count, 3),
-                jnp.asarray(np.repeat(face_colors, 3, axis=0)))
+    mesh = Mesh(
+        jnp.asarray(vertices.reshape(-1, 3)),
+        jnp.arange(3 * count).reshape(count, 3),
+        jnp.asarray(np.repeat(face_colors, 3, axis=0)),
+    )
     triangles, colors = R.screen_scene(mesh, camera, shape)
     hard = R.zbuffer(triangles, colors, shape)
     covered = np.isfinite(np.asarray(hard.depth))
@@ -105,39 +112,74 @@ def test_soft_converges_to_zbuffer():
 
 
 def test_check_grads_of_the_soft_rasterizer():
-    vertices = jnp.array([[-0.5, -0.4, 0.0], [0.6, -0.3, 0.1], [0.0, 0.6, -0.1],
-                          [-0.2, -0.1, 0.3], [0.5, 0.3, 0.4], [-0.3, 0.5, 0.2]])
+    vertices = jnp.array(
+        [
+            [-0.5, -0.4, 0.0],
+            [0.6, -0.3, 0.1],
+            [0.0, 0.6, -0.1],
+            [-0.2, -0.1, 0.3],
+            [0.5, 0.3, 0.4],
+            [-0.3, 0.5, 0.2],
+        ]
+    )
     faces = jnp.array([[0, 1, 2], [3, 4, 5]])
-    colors = jnp.array([[1.0, 0.2, 0.1], [0.9, 0.8, 0.1], [0.1, 0.9, 0.5],
-                        [0.2, 0.3, 1.0], [0.5, 0.1, 0.9], [0.3, 0.7, 0.2]])
+    colors = jnp.array(
+        [
+            [1.0, 0.2, 0.1],
+            [0.9, 0.8, 0.1],
+            [0.1, 0.9, 0.5],
+            [0.2, 0.3, 1.0],
+            [0.5, 0.1, 0.9],
+            [0.3, 0.7, 0.2],
+        ]
+    )
     eye = jnp.array([0.2, 0.1, 2.5])
 
     @jax.jit
     def render(vertices, colors, eye):
         camera = Camera(eye, near=0.5, far=5.0)
-        rgba, depth = R.soft_rasterize(Mesh(vertices, faces, colors), camera, (8, 8),
-                                       sigma=3.0, gamma=0.2, eps=1e-12, tile_size=4,
-                                       capacity=2)
+        rgba, depth = R.soft_rasterize(
+            Mesh(vertices, faces, colors),
+            camera,
+            (8, 8),
+            sigma=3.0,
+            gamma=0.2,
+            eps=1e-12,
+            tile_size=4,
+            capacity=2,
+        )
         return rgba, depth
 
-    check_grads(render, (vertices, colors, eye), order=1, modes=("rev",), eps=1e-6,
-                rtol=1e-4, atol=1e-6)
+    check_grads(
+        render, (vertices, colors, eye), order=1, modes=("rev",), eps=1e-6, rtol=1e-4, atol=1e-6
+    )
 
 
 def test_gradients_stay_finite_in_degenerate_cases():
-    vertices = jnp.array([
-        [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0],  # a triangle shrunk to a point
-        [-0.5, 0.1, 0.0], [0.0, 0.1, 0.0], [0.5, 0.1, 0.0],  # collinear corners
-        [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [0.0, 1.0, 0.0],  # edges through pixel centres
-        [0.0, 0.0, 0.5], [0.3, 0.0, 5.0], [0.0, 0.3, 0.5],  # a corner behind the camera
-    ])
+    vertices = jnp.array(
+        [
+            [0.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0],  # a triangle shrunk to a point
+            [-0.5, 0.1, 0.0],
+            [0.0, 0.1, 0.0],
+            [0.5, 0.1, 0.0],  # collinear corners
+            [-1.0, -1.0, 0.0],
+            [1.0, -1.0, 0.0],
+            [0.0, 1.0, 0.0],  # edges through pixel centres
+            [0.0, 0.0, 0.5],
+            [0.3, 0.0, 5.0],
+            [0.0, 0.3, 0.5],  # a corner behind the camera
+        ]
+    )
     faces = jnp.arange(12).reshape(4, 3)
     camera = Camera(jnp.array([0.0, 0.0, 2.0]), near=0.5, far=10.0)
 
     def loss(vertices, eye):
         cam = Camera(eye, near=0.5, far=10.0)
-        rgba, depth = R.soft_rasterize(Mesh(vertices, faces), cam, (9, 9), sigma=0.5,
-                                       gamma=0.1, capacity=4)
+        rgba, depth = R.soft_rasterize(
+            Mesh(vertices, faces), cam, (9, 9), sigma=0.5, gamma=0.1, capacity=4
+        )
         return jnp.sum(rgba) + 0.01 * jnp.sum(depth)
 
     grads = jax.jit(jax.grad(loss, argnums=(0, 1)))(vertices, camera.eye)
@@ -145,8 +187,11 @@ def test_gradients_stay_finite_in_degenerate_cases():
     assert float(jnp.abs(grads[0][6:9]).sum()) > 0  # the proper triangle moves the image
     # the 2D silhouette too, with vertices exactly on pixel centres
     pts = jnp.array([[2.0, 2.0], [6.0, 2.0], [2.0, 6.0], [4.0, 4.0], [4.0, 4.0], [5.0, 5.0]])
-    g = jax.grad(lambda p: jnp.sum(R.soft_silhouette(p, jnp.array([[0, 1, 2], [3, 4, 5]]),
-                                                     (9, 9), sigma=0.5)))(pts)
+    g = jax.grad(
+        lambda p: jnp.sum(
+            R.soft_silhouette(p, jnp.array([[0, 1, 2], [3, 4, 5]]), (9, 9), sigma=0.5)
+        )
+    )(pts)
     assert bool(jnp.all(jnp.isfinite(g)))
 
 

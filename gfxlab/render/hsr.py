@@ -324,6 +324,32 @@ def _classify(rects, triangles, valid):
     return ~valid | apart | separated, surrounding, corners
 
 
+def _warnock_decide(rects, triangles, valid, active, bottom):
+    """Warnock's four tests on every cell of one level: the decision code, the owning
+    triangle (tests 3, 4), the first relevant triangle (test 2) and the counts."""
+    disjoint, surrounding, corners = _classify(rects, triangles, valid)
+    relevant = ~disjoint
+    n_rel = jnp.sum(relevant, -1)
+    n_sur = jnp.sum(surrounding, -1)
+    first_rel = jnp.argmax(relevant, -1)
+    _, corner_depth = _edge_functions(corners, triangles)  # (n, n, 4, F)
+    corner_depth = jnp.where(relevant[..., None, :], corner_depth, jnp.inf)
+    # test 4: a surrounding triangle strictly nearer than every other relevant one at
+    # each corner, i.e. the only one at the corner's minimum depth
+    nearest = jnp.min(corner_depth, axis=-1, keepdims=True)  # (n, n, 4, 1)
+    unique = jnp.sum(corner_depth == nearest, axis=-1, keepdims=True) == 1
+    front = surrounding & jnp.all((corner_depth == nearest) & unique, axis=-2)
+    test1 = n_rel == 0
+    test2 = (n_rel == 1) & (n_sur == 0)
+    test3 = (n_rel == 1) & (n_sur == 1)
+    test4 = ~test1 & ~test2 & ~test3 & jnp.any(front, -1)
+    code = jnp.select([test1, test2, test3, test4], [1, 2, 3, 4], 6 if bottom else 5)
+    code = jnp.where(active, code, 0)
+    cell_owner = jnp.select([test3, test4], [first_rel, jnp.argmax(front, -1)], -1)
+    undecided = ~test1 & ~test2 & ~test3
+    return code, cell_owner, first_rel, n_rel, n_sur, undecided
+
+
 @functools.partial(jax.jit, static_argnames=("shape",))
 def warnock(
     triangles: Float[Array, "F 3 3"],
@@ -366,26 +392,10 @@ def warnock(
         block = grid.reshape(n, s, n, s, 2)
         rects = jnp.concatenate([block[:, -1, :, 0], block[:, 0, :, -1]], -1)  # (n, n, 4)
         active = ~decided[::s, ::s]
-        disjoint, surrounding, corners = _classify(rects, triangles, valid)
-        relevant = ~disjoint
-        n_rel = jnp.sum(relevant, -1)
-        n_sur = jnp.sum(surrounding, -1)
-        first_rel = jnp.argmax(relevant, -1)
-        _, corner_depth = _edge_functions(corners, triangles)  # (n, n, 4, F)
-        corner_depth = jnp.where(relevant[..., None, :], corner_depth, jnp.inf)
-        # test 4: a surrounding triangle strictly nearer than every other relevant one at
-        # each corner, i.e. the only one at the corner's minimum depth
-        nearest = jnp.min(corner_depth, axis=-1, keepdims=True)  # (n, n, 4, 1)
-        unique = jnp.sum(corner_depth == nearest, axis=-1, keepdims=True) == 1
-        front = surrounding & jnp.all((corner_depth == nearest) & unique, axis=-2)
-        test1 = n_rel == 0
-        test2 = (n_rel == 1) & (n_sur == 0)
-        test3 = (n_rel == 1) & (n_sur == 1)
-        test4 = ~test1 & ~test2 & ~test3 & jnp.any(front, -1)
         bottom = level == levels
-        code = jnp.select([test1, test2, test3, test4], [1, 2, 3, 4], 6 if bottom else 5)
-        code = jnp.where(active, code, 0)
-        cell_owner = jnp.select([test3, test4], [first_rel, jnp.argmax(front, -1)], -1)
+        code, cell_owner, first_rel, n_rel, n_sur, undecided = _warnock_decide(
+            rects, triangles, valid, active, bottom
+        )
         # test 2: scan-convert the single polygon inside its cell
         px_first = jnp.repeat(jnp.repeat(first_rel, s, 0), s, 1)
         covered_first = _covers_own(grid, triangles[px_first], valid[px_first])
@@ -400,7 +410,7 @@ def warnock(
         owner = jnp.where(newly, px_owner, owner)
         decided = decided | newly
         polygon_tests = polygon_tests + jnp.sum(active) * len(valid)
-        reached4 = active & ~test1 & ~test2 & ~test3 & (n_sur > 0)
+        reached4 = active & undecided & (n_sur > 0)
         depth_tests = depth_tests + 4 * jnp.sum(jnp.where(reached4, n_rel, 0))
         max_active = jnp.maximum(max_active, jnp.sum(active))
         codes.append(code.astype(jnp.int8))

@@ -381,6 +381,35 @@ def _check_render_inputs(mesh, camera, vertices, attributes):
     return vertices, camera, batched_camera, attributes
 
 
+def _render_capacity(
+    mesh,
+    vertices,
+    camera,
+    batched_camera,
+    sigma,
+    soft,
+    eps,
+    shape,
+    tile_size,
+    capacity,
+    cull_backfaces,
+):
+    """The tile capacity: measured from the projected geometry when it is concrete."""
+    traced = any_traced(mesh, vertices, camera, sigma)
+    tri = valid = None
+    if not traced:
+
+        def project(v, c):
+            return project_faces(v, mesh.faces, c, shape, cull_backfaces=cull_backfaces)
+
+        axes = (0 if vertices.ndim == 3 else None, 0 if batched_camera else None)
+        if axes != (None, None):
+            project = jax.vmap(project, in_axes=axes)
+        tri, _, _, valid = project(vertices, camera)
+    margin = jnp.sqrt(sigma * logit_limit(eps)) if soft else jnp.zeros((), vertices.dtype)
+    return resolve_capacity(capacity, tri, valid, margin, shape, tile_size, traced, mesh.num_faces)
+
+
 def render(
     mesh: Mesh,
     camera: Camera,
@@ -456,20 +485,18 @@ def render(
     background = jnp.broadcast_to(background, (channels,))
     params = (sigma, gamma, jnp.asarray(eps_background, dtype))
     soft = mode == "soft"
-    traced = any_traced(mesh, vertices, camera, sigma)
-    tri = valid = None
-    if not traced:
-
-        def project(v, c):
-            return project_faces(v, mesh.faces, c, (height, width), cull_backfaces=cull_backfaces)
-
-        axes = (0 if vertices.ndim == 3 else None, 0 if batched_camera else None)
-        if axes != (None, None):
-            project = jax.vmap(project, in_axes=axes)
-        tri, _, _, valid = project(vertices, camera)
-    margin = jnp.sqrt(sigma * logit_limit(eps)) if soft else jnp.zeros((), dtype)
-    capacity = resolve_capacity(
-        capacity, tri, valid, margin, (height, width), tile_size, traced, mesh.num_faces
+    capacity = _render_capacity(
+        mesh,
+        vertices,
+        camera,
+        batched_camera,
+        sigma,
+        soft,
+        eps,
+        (height, width),
+        tile_size,
+        capacity,
+        cull_backfaces,
     )
     config = _Config(
         (height, width),
