@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import importlib
 
+from ._resources import data_file
+
 __version__ = "0.1.0"
 
 _SUBMODULES = (
@@ -28,7 +30,7 @@ _SUBMODULES = (
     "grading",
 )
 
-__all__ = ["__version__", *_SUBMODULES]
+__all__ = ["__version__", "data_file", *_SUBMODULES]
 
 
 def __getattr__(name: str):

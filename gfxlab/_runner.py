@@ -30,11 +30,13 @@ HEADLESS_ENV = "GFXLAB_HEADLESS"
 
 
 def labs_dir() -> pathlib.Path:
-    """Where the labs are: `$GFXLAB_LABS`, else `labs/` next to the package (a checkout)."""
+    """Where the labs are: `$GFXLAB_LABS`, else the shipped labs (`labs/` of a checkout)."""
     env = os.environ.get("GFXLAB_LABS")
     if env:
         return pathlib.Path(env)
-    return pathlib.Path(__file__).resolve().parents[1] / "labs"
+    from ._resources import labs_dir as shipped
+
+    return shipped()
 
 
 def jax_cache_dir() -> pathlib.Path:
@@ -230,6 +232,8 @@ def run_lab(
     if failure is not None and cell is not None:
         _note(cell, "stopped here: " + failure[0])
     html_path.write_text(_html(nb), encoding="utf-8")
+    # The executed notebook too: the documentation site renders it without running it.
+    nbformat.write(nb, out_dir / path.name)
     if failure is not None:
         source = cell.source if cell is not None else ""
         raise LabError(path, index, source, failure[0], html_path, timed_out=failure[1])
@@ -319,8 +323,22 @@ def _report(run: LabRun) -> None:
 
 def main(command: str, argv: list[str]) -> int:
     if command == "labs":
-        parser = argparse.ArgumentParser(prog="python -m gfxlab labs", description="List the labs.")
-        parser.parse_args(argv)
+        parser = argparse.ArgumentParser(
+            prog="python -m gfxlab labs",
+            description="List the labs, or copy them into a folder of yours.",
+        )
+        parser.add_argument(
+            "--copy",
+            metavar="DIR",
+            help="copy the lab notebooks into DIR (files already there are kept)",
+        )
+        args = parser.parse_args(argv)
+        if args.copy:
+            from ._resources import copy_labs
+
+            written = copy_labs(args.copy)
+            print(f"copied {len(written)} labs into {args.copy}")
+            return 0
         labs = list_labs()
         if not labs:
             print(f"no labs found in {labs_dir()} (set GFXLAB_LABS to the labs folder)")

@@ -26,3 +26,26 @@ def maybe_jit(request):
     if request.param:
         return jax.jit
     return lambda fn, **_: fn
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """After the lab tests (`tests/test_labs.py`), write the gallery's index page.
+
+    Runs once, in the main process (xdist workers carry `workerinput`), and only when
+    `make test` asked for the executed labs to be kept (`GFXLAB_LABS_OUT`).
+    """
+    out = os.environ.get("GFXLAB_LABS_OUT")
+    if hasattr(session.config, "workerinput") or not out:
+        return
+    import pathlib
+
+    from gfxlab import _runner
+
+    out = pathlib.Path(out)
+    runs = [
+        _runner.LabRun(lab, _runner.lab_title(lab), out / f"{lab.stem}.html", 0.0)
+        for lab in _runner.list_labs()
+        if (out / f"{lab.stem}.html").is_file()
+    ]
+    if runs:
+        _runner.write_index(out, runs)

@@ -36,6 +36,7 @@ from .._checks import (
     static_int,
     value_error_if,
 )
+from .._resources import data_folder
 
 __all__ = [
     "Mesh",
@@ -67,7 +68,7 @@ __all__ = [
 MAX_SUBDIVISIONS = 7
 
 #: `data/meshes/` of the repository.
-DATA_DIR = pathlib.Path(__file__).resolve().parent.parent.parent / "data" / "meshes"
+DATA_DIR = data_folder("meshes")
 
 
 def check_faces(faces, num_vertices: int, name: str = "faces") -> jax.Array:
