@@ -313,7 +313,11 @@ NAN, INF = float("nan"), float("inf")
             ValueError,
             "`ndc_points` must be finite",
         ),
-        (lambda: vw.ndc_to_pixels(jnp.zeros(2), (10**9, 10**9)), ValueError, "asks for"),
+        (
+            lambda: vw.ndc_to_pixels(jnp.zeros(2), (10**9, 10**9)),
+            ValueError,
+            r"`shape\[0\]` must be <=",
+        ),
         (lambda: vw.plane_projection(["z"]), ValueError, "`axis` must be 'x', 'y' or 'z'"),
         (lambda: vw.orthographic_view(None), ValueError, "`name` must be one of"),
     ],
