@@ -11,10 +11,11 @@ degenerate window) are checked by `value_error_if` and the helpers built on it
 - called eagerly, or on values JAX knows at trace time: `ValueError(message)` at once;
 - inside `jax.jit` on traced values: the check goes through `equinox.error_if` and fires
   when the compiled program runs. JAX wraps every exception raised while a compiled
-  program runs in its own `jax.errors.JaxRuntimeError` (an `INTERNAL: CpuCallback error`
-  with a long traceback); the same `message` is inside it, on a line of its own. Under
+  program runs in its own `jax.errors.JaxRuntimeError` (on some dispatch paths a
+  `ValueError`): an `INTERNAL: CpuCallback error` with a long traceback, the same
+  `message` inside it on a line of its own. Under
   `equinox.filter_jit` the error is an `equinox.EquinoxRuntimeError` with that message;
-  under `checked_jit` (a drop-in `jax.jit`, exported as `gfxlab.jit`) it is the same
+  under `checked_jit` (a drop-in `jax.jit`) it is the same
   `ValueError(message)` as eagerly. `check_message(err)` recovers the message from any
   of these exceptions.
 
@@ -321,9 +322,9 @@ def checked_jit(fn: Callable | None = None, **jit_kwargs) -> Callable:
     def call(*args, **kwargs):
         try:
             return compiled(*args, **kwargs)
-        except (jax.errors.JaxRuntimeError, RuntimeError) as err:
+        except (jax.errors.JaxRuntimeError, RuntimeError, ValueError) as err:
             message = check_message(err)
-            if message is None:
+            if message is None or message == str(err):
                 raise
             raise ValueError(message) from None
 

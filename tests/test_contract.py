@@ -25,8 +25,13 @@ Failures of other modules that are known are listed in `contract_known_failures.
 
 Summary (counts per module), from the repository root:
 
-    python tests/test_contract.py            # print the table
+    python tests/test_contract.py            # print the table (every case)
+    python tests/test_contract.py --quick    # the quick subset that pytest runs
     python tests/test_contract.py --known    # print the allow-list for the current tree
+
+Under pytest the sweep runs the quick subset of cases (`QUICK_CASES`: None, NaN, a wrong
+shape, a huge size, an unknown choice for every parameter of every function);
+`CONTRACT_FULL=1 pytest tests/test_contract.py` runs them all.
 """
 
 from __future__ import annotations
@@ -293,7 +298,13 @@ def _calls(module_name: str):
                 yield fn_name, p.name, case, bad, make
 
 
-def sweep(path: str, start: int = 0, modules=MODULES, jit_sample: int = 3) -> None:
+#: The cases of the quick sweep (the default under pytest; `CONTRACT_FULL=1` for all).
+QUICK_CASES = {"none", "nan", "huge", "choice", "shape"}
+
+
+def sweep(
+    path: str, start: int = 0, modules=MODULES, jit_sample: int = 3, quick: bool = False
+) -> None:
     """Run every case from number `start` on, appending one JSON line per case to `path`
     (a `{"begin": i}` line before case `i`, so a crash is attributed to its case).
 
@@ -315,6 +326,8 @@ def sweep(path: str, start: int = 0, modules=MODULES, jit_sample: int = 3) -> No
         for module_name in modules:
             jitted = 0
             for fn_name, param, case, bad, make in _calls(module_name):
+                if quick and case not in QUICK_CASES and case != "baseline":
+                    continue
                 index += 1
                 if index < start:
                     jitted += case in ("nan", "inf")  # keeps the jit sample the same
@@ -414,7 +427,9 @@ def _limit_memory():
     resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT, MEMORY_LIMIT))
 
 
-def run_sweep_subprocess(timeout: float = 900, restarts: int = 30) -> list[dict]:
+def run_sweep_subprocess(
+    timeout: float = 900, restarts: int = 30, quick: bool = False
+) -> list[dict]:
     """The sweep in a fresh interpreter with capped memory; its records.
 
     If the interpreter dies (an abort inside XLA, memory exhausted), the case it was
@@ -429,7 +444,7 @@ def run_sweep_subprocess(timeout: float = 900, restarts: int = 30) -> list[dict]
         for _ in range(restarts):
             code = (
                 f"import sys; sys.path.insert(0, {str(HERE)!r}); import test_contract as t; "
-                f"t.sweep({path!r}, {start})"
+                f"t.sweep({path!r}, {start}, quick={quick})"
             )
             run = subprocess.run(
                 [sys.executable, "-c", code], capture_output=True, text=True, timeout=timeout,
@@ -459,7 +474,7 @@ def run_sweep_subprocess(timeout: float = 900, restarts: int = 30) -> list[dict]
 
 @pytest.fixture(scope="module")
 def records():
-    return run_sweep_subprocess()
+    return run_sweep_subprocess(quick=os.environ.get("CONTRACT_FULL", "") != "1")
 
 
 @pytest.mark.parametrize("module", MODULES)
@@ -481,7 +496,7 @@ def test_owned_modules_have_no_known_failures():
 
 
 if __name__ == "__main__":
-    found = run_sweep_subprocess()
+    found = run_sweep_subprocess(quick="--quick" in sys.argv)
     if "--known" in sys.argv:
         print(KNOWN_HEADER + "\n".join(sorted(failures(found))))
     else:

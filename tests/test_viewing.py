@@ -9,6 +9,10 @@ from jax.test_util import check_grads
 from gfxlab import transforms as tf
 from gfxlab import viewing as vw
 
+# JAX reports an exception raised while a compiled program runs as JaxRuntimeError or,
+# on some dispatch paths, as ValueError; either carries the check's message.
+JIT_ERRORS = (jax.errors.JaxRuntimeError, ValueError)
+
 
 def test_look_at_sends_eye_to_origin_and_target_down_minus_z(maybe_jit):
     eye, target, up = (
@@ -313,7 +317,11 @@ NAN, INF = float("nan"), float("inf")
             ValueError,
             "`ndc_points` must be finite",
         ),
-        (lambda: vw.ndc_to_pixels(jnp.zeros(2), (10**9, 10**9)), ValueError, "asks for"),
+        (
+            lambda: vw.ndc_to_pixels(jnp.zeros(2), (10**9, 10**9)),
+            ValueError,
+            r"`shape\[0\]` must be <=",
+        ),
         (lambda: vw.plane_projection(["z"]), ValueError, "`axis` must be 'x', 'y' or 'z'"),
         (lambda: vw.orthographic_view(None), ValueError, "`name` must be one of"),
     ],
@@ -345,7 +353,7 @@ def test_bad_camera_parameters_name_the_argument(call, error, message):
     ],
 )
 def test_bad_camera_parameters_under_jit_same_message(fn, bad, message):
-    with pytest.raises(jax.errors.JaxRuntimeError) as info:
+    with pytest.raises(JIT_ERRORS) as info:
         jax.jit(fn)(bad)
     assert _checks.check_message(info.value).startswith(message)
     with pytest.raises(ValueError, match=f"^{message}"):
