@@ -36,6 +36,7 @@ Run `python -m gfxlab COMMAND --help` for a command's options."""
 
 
 def main(argv: list[str] | None = None) -> int:
+    """The `python -m gfxlab` / `gfxlab` command line; returns the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in ("-h", "--help", "help"):
         print(_USAGE)

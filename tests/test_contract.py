@@ -477,6 +477,10 @@ def records():
     return run_sweep_subprocess(quick=os.environ.get("CONTRACT_FULL", "") != "1")
 
 
+# One worker runs the sweep once (the fixture is per process): keep its tests together.
+pytestmark = pytest.mark.xdist_group("contract")
+
+
 @pytest.mark.parametrize("module", MODULES)
 def test_no_new_contract_failures(records, module):
     mine = [r for r in records if r["module"] == module]

@@ -52,11 +52,26 @@ def test_pixel_bad_inputs():
 
 # Two lines per octant (steep and shallow, every sign), ties, and degenerate cases.
 LINES = [
-    ((0, 0), (9, 4)), ((0, 0), (4, 9)), ((0, 0), (-9, 4)), ((0, 0), (-4, 9)),
-    ((0, 0), (-9, -4)), ((0, 0), (-4, -9)), ((0, 0), (9, -4)), ((0, 0), (4, -9)),
-    ((3, -2), (15, 1)), ((-5, 7), (-2, -6)), ((2, 2), (8, 5)), ((8, 5), (2, 2)),
-    ((0, 0), (6, 1)), ((0, 0), (1, 6)), ((0, 0), (6, 6)), ((0, 0), (-6, 6)),
-    ((1, 1), (1, 1)), ((0, 3), (0, -4)), ((-2, 0), (5, 0)), ((0, 0), (17, 11)),
+    ((0, 0), (9, 4)),
+    ((0, 0), (4, 9)),
+    ((0, 0), (-9, 4)),
+    ((0, 0), (-4, 9)),
+    ((0, 0), (-9, -4)),
+    ((0, 0), (-4, -9)),
+    ((0, 0), (9, -4)),
+    ((0, 0), (4, -9)),
+    ((3, -2), (15, 1)),
+    ((-5, 7), (-2, -6)),
+    ((2, 2), (8, 5)),
+    ((8, 5), (2, 2)),
+    ((0, 0), (6, 1)),
+    ((0, 0), (1, 6)),
+    ((0, 0), (6, 6)),
+    ((0, 0), (-6, 6)),
+    ((1, 1), (1, 1)),
+    ((0, 3), (0, -4)),
+    ((-2, 0), (5, 0)),
+    ((0, 0), (17, 11)),
 ]
 
 
@@ -64,8 +79,12 @@ LINES = [
 def test_lines_match_skimage_and_steps(p0, p1):
     rr, cc = skimage.draw.line(p0[1], p0[0], p1[1], p1[0])  # rows = y, cols = x
     expected = np.stack([cc, rr], -1)
-    for fn in (raster.line_bresenham, raster.line_bresenham_steps, raster.line_dda,
-               raster.line_dda_steps):
+    for fn in (
+        raster.line_bresenham,
+        raster.line_bresenham_steps,
+        raster.line_dda,
+        raster.line_dda_steps,
+    ):
         np.testing.assert_array_equal(fn(p0, p1), expected, err_msg=fn.__name__)
 
 
@@ -90,8 +109,10 @@ def test_lines_under_jit(maybe_jit):
     np.testing.assert_array_equal(fn(p0=(0, 0), p1=(5, -3)), raster.line_dda((0, 0), (5, -3)))
 
 
-@pytest.mark.parametrize("fn", [raster.line_dda, raster.line_bresenham,
-                                raster.line_dda_steps, raster.line_bresenham_steps])
+@pytest.mark.parametrize(
+    "fn",
+    [raster.line_dda, raster.line_bresenham, raster.line_dda_steps, raster.line_bresenham_steps],
+)
 def test_lines_bad_inputs(fn):
     with pytest.raises(TypeError, match="p0"):
         fn((0.5, 0), (3, 3))
@@ -167,8 +188,7 @@ def test_midpoint_circle_jit_traced_center(maybe_jit):
 
 
 def test_circle_bad_inputs():
-    for fn in (raster.midpoint_circle, raster.midpoint_circle_steps,
-               raster.midpoint_circle_trace):
+    for fn in (raster.midpoint_circle, raster.midpoint_circle_steps, raster.midpoint_circle_trace):
         with pytest.raises(ValueError, match="radius"):
             fn(-1)
         with pytest.raises(TypeError, match="radius"):
@@ -241,8 +261,11 @@ def test_ellipse_with_equal_radii_is_the_midpoint_circle():
 
 
 def test_ellipse_bad_inputs():
-    for fn in (raster.midpoint_ellipse, raster.midpoint_ellipse_steps,
-               raster.midpoint_ellipse_trace):
+    for fn in (
+        raster.midpoint_ellipse,
+        raster.midpoint_ellipse_steps,
+        raster.midpoint_ellipse_trace,
+    ):
         with pytest.raises(ValueError, match="rx"):
             fn(0, 3)
         with pytest.raises(TypeError, match="ry"):
@@ -288,8 +311,9 @@ def test_fill_polygon_bad_inputs():
 def _shapely_coverage(vertices, shape):
     height, width = shape
     centres = np.asarray(raster.pixel_centers(shape)).reshape(-1, 2)
-    boxes = shapely.box(centres[:, 0] - 0.5, centres[:, 1] - 0.5, centres[:, 0] + 0.5,
-                        centres[:, 1] + 0.5)
+    boxes = shapely.box(
+        centres[:, 0] - 0.5, centres[:, 1] - 0.5, centres[:, 0] + 0.5, centres[:, 1] + 0.5
+    )
     polygon = shapely.Polygon(vertices)
     return shapely.area(shapely.intersection(polygon, boxes)).reshape(height, width)
 
@@ -301,8 +325,9 @@ def test_polygon_coverage_is_exact_area(maybe_jit):
     star = np.stack([15 + radii * np.cos(angles), 11 + radii * np.sin(angles)], -1)
     coverage = maybe_jit(raster.polygon_coverage, static_argnames="shape")
     for vertices in (star, star[::-1], np.array([[2.3, 1.7], [29.2, 4.4], [5.5, 21.9]])):
-        np.testing.assert_allclose(coverage(vertices, shape=SHAPE),
-                                   _shapely_coverage(vertices, SHAPE), atol=1e-9)
+        np.testing.assert_allclose(
+            coverage(vertices, shape=SHAPE), _shapely_coverage(vertices, SHAPE), atol=1e-9
+        )
 
 
 def test_line_coverage_is_exact_area():
@@ -318,8 +343,10 @@ def test_line_coverage_is_exact_area():
 def test_supersample_converges_to_coverage():
     vertices = jnp.array([[2.3, 1.7], [29.2, 4.4], [5.5, 21.9]])
     exact = raster.polygon_coverage(vertices, SHAPE)
-    images = [raster.supersample(lambda p: raster.inside_polygon(p, vertices), SHAPE, factor=k)
-              for k in (1, 4, 16)]
+    images = [
+        raster.supersample(lambda p: raster.inside_polygon(p, vertices), SHAPE, factor=k)
+        for k in (1, 4, 16)
+    ]
     errors = [float(jnp.abs(image - exact).mean()) for image in images]
     assert errors[0] > errors[1] > errors[2] and errors[2] < 2e-3
     np.testing.assert_array_equal(images[0], raster.fill_polygon(vertices, SHAPE))
@@ -371,8 +398,7 @@ def test_raster_scan_refreshes_the_frame_buffer(interlaced):
     on = np.asarray(beam.on)
     assert on.sum() == 42 and np.all(np.asarray(beam.intensity)[~on] == 0)
     order = list(range(0, 7, 2)) + list(range(1, 7, 2)) if interlaced else list(range(7))
-    np.testing.assert_array_equal(np.asarray(beam.intensity)[on],
-                                  np.asarray(frame)[order].ravel())
+    np.testing.assert_array_equal(np.asarray(beam.intensity)[on], np.asarray(frame)[order].ravel())
     centres = np.asarray(raster.pixel_centers((7, 6)))[order].reshape(-1, 2)
     np.testing.assert_array_equal(np.asarray(beam.positions)[on], centres)
     # With no decay, one refresh paints exactly the frame buffer onto the screen.
@@ -386,8 +412,9 @@ def test_raster_scan_refreshes_the_frame_buffer(interlaced):
 
 def test_random_scan_draws_the_display_list():
     segments = jnp.array([[[1.0, 1.0], [8.0, 5.0]], [[0.0, 7.0], [9.0, 7.0]]])
-    beam = raster.random_scan(segments, intensity=jnp.array([1.0, 0.5]),
-                              samples_per_segment=10, move_samples=3)
+    beam = raster.random_scan(
+        segments, intensity=jnp.array([1.0, 0.5]), samples_per_segment=10, move_samples=3
+    )
     assert beam.positions.shape == (26, 2)
     on = np.asarray(beam.on)
     assert on.sum() == 20
@@ -397,8 +424,9 @@ def test_random_scan_draws_the_display_list():
     # the drawn samples lie on their segments (cross product zero)
     d = np.asarray(segments[:, 1] - segments[:, 0])
     rel = lit - np.asarray(segments[:, :1])
-    np.testing.assert_allclose(rel[..., 0] * d[:, None, 1] - rel[..., 1] * d[:, None, 0], 0,
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        rel[..., 0] * d[:, None, 1] - rel[..., 1] * d[:, None, 0], 0, atol=1e-12
+    )
     screen = raster.phosphor_frames(beam, (9, 10), num_frames=1, decay=1.0, refreshes=2)
     assert float(screen[0][1, 5]) == 1.0  # y = 7 line (row 1) fully lit after two refreshes
     assert float(screen[0].max()) <= 1.0

@@ -86,6 +86,7 @@ class Skeleton(eqx.Module):
 
     @property
     def num_joints(self) -> int:
+        """The number of joints."""
         return len(self.parents)
 
     @property

@@ -179,7 +179,7 @@ class _State:
         return "rgb" if tuple(c[0] for c in comps) == (82, 71, 66) else "ycc"
 
 
-def _decode(d: bytes, max_pixels) -> np.ndarray:
+def _decode(d: bytes, max_pixels) -> np.ndarray:  # noqa: C901 - one branch per JPEG marker
     n = len(d)
     if n < 4 or d[0] != 0xFF or d[1] != 0xD8:
         raise JPEGError("not a JPEG file: missing SOI marker")

@@ -187,10 +187,12 @@ class Mesh(eqx.Module):
 
     @property
     def num_vertices(self) -> int:
+        """The number of vertices `V`."""
         return self.vertices.shape[0]
 
     @property
     def num_faces(self) -> int:
+        """The number of triangles `F`."""
         return self.faces.shape[0]
 
     def _with(self, **changes) -> Mesh:
@@ -226,9 +228,11 @@ class Mesh(eqx.Module):
         return self._with(vertices=vertices)
 
     def face_normals(self) -> Float[Array, "F 3"]:
+        """Unit normals of the faces (see the function `face_normals`)."""
         return face_normals(self.vertices, self.faces)
 
     def vertex_normals(self) -> Float[Array, "V 3"]:
+        """Area-weighted unit normals at the vertices (see the function `vertex_normals`)."""
         return vertex_normals(self.vertices, self.faces)
 
 

@@ -74,6 +74,7 @@ class DirectionalLight(eqx.Module):
         self.intensity = _intensity(intensity, "intensity")
 
     def incident(self, points):
+        """Unit directions towards the light and the irradiance scale at `points`."""
         d = self.direction.astype(points.dtype)
         wi = jnp.broadcast_to(d / safe_norm(d), points.shape)
         return wi, jnp.broadcast_to(
