@@ -44,7 +44,7 @@ lab: $(VENV)/.installed-lab
 test: $(VENV)/.installed-dev
 	@rm -rf $(LABS_OUT); mkdir -p $(LABS_OUT)
 	@MPLBACKEND=Agg $(BIN)/python -m pytest -n $(WORKERS) --dist loadgroup \
-		tests; rc=$$?; \
+		--doctest-modules tests gfxlab; rc=$$?; \
 	if [ $$rc -eq 5 ]; then echo "no tests collected"; rc=0; fi; [ $$rc -eq 0 ] || exit $$rc
 	@$(MAKE) --no-print-directory lint
 	@$(MAKE) --no-print-directory docs

@@ -5,10 +5,18 @@ bit-exact integer versions libjpeg uses live in `gfxlab.jpeg._libjpeg`. Samples 
 on JPEG's 0..255 scale from `level_shift` on; colour conversion works on images in
 [0, 1] (multiply by 255 for JFIF's 0..255 values).
 
-Example (the seed's Q5f block):
-    >>> coefs = dct2(level_shift(block))            # block: (8, 8) values 0..255
-    >>> q = quantize(coefs, quant_tables(50)[0])    # = LUMINANCE_TABLE at quality 50
-    >>> zigzag(q)[:4]                                # -26, -3, 0, -3
+Example (the exam's Q5f block, given level-shifted in the answer key):
+
+    >>> import numpy as np
+    >>> shifted = np.array([
+    ...     [-76, -73, -67, -62, -58, -67, -64, -55], [-65, -69, -73, -38, -19, -43, -59, -56],
+    ...     [-66, -69, -60, -15, 16, -24, -62, -55], [-65, -70, -57, -6, 26, -22, -58, -59],
+    ...     [-61, -67, -60, -24, -2, -40, -60, -58], [-49, -63, -68, -58, -51, -60, -70, -53],
+    ...     [-43, -57, -64, -69, -73, -67, -63, -45], [-41, -49, -59, -60, -63, -52, -50, -34]])
+    >>> coefs = dct2(level_shift(shifted + 128))
+    >>> q = quantize(coefs, quant_tables(50)[0])    # quality 50: the standard luminance table
+    >>> [int(v) for v in zigzag(q)[:6]]
+    [-26, -3, 0, -3, -2, -6]
 """
 
 from __future__ import annotations
