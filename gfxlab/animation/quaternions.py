@@ -19,6 +19,7 @@ from .._checks import (
     safe_normalize,
     value_error_if,
 )
+from ..transforms import rotation_from_quaternion
 
 __all__ = [
     "quat_identity",
@@ -124,14 +125,8 @@ def quat_to_matrix(q: Quat) -> Float[Array, "*batch 3 3"]:
 
     Embed it in a 4x4 with `gfxlab.transforms.linear`.
     """
-    q = _quats(q)
-    w, x, y, z = jnp.moveaxis(q, -1, 0)
-    rows = [
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ]
-    return jnp.stack([jnp.stack(r, axis=-1) for r in rows], axis=-2)
+    # One owner for quaternion -> matrix: gfxlab.transforms (which also normalises).
+    return rotation_from_quaternion(_quats(q))
 
 
 def quat_rotate(q: Quat, points: Float[Array, "*batch N 3"]) -> Float[Array, "*batch N 3"]:
