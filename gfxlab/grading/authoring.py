@@ -431,8 +431,11 @@ def _forbid_cell(config: dict) -> dict | None:
     names = ", ".join(f"`{m}`" for m in forbid)
     return new_cell(
         "markdown",
-        f"**Not allowed in this assignment:** {names}. The grader "
-        "makes these modules unimportable; code using them scores 0.",
+        f"**Not allowed in this assignment:** {names} (and their submodules). The grader "
+        "makes these modules unimportable: a cell that imports one fails with an "
+        "`ImportError` there, so what it defines is missing and the tests that need it "
+        "score 0. A module that itself needs a forbidden one cannot be imported either "
+        "(the message names both).",
     )
 
 

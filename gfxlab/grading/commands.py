@@ -10,7 +10,6 @@ code (and, for `check`, the notebook's own test cells) in the sandbox.
 from __future__ import annotations
 
 import ast
-import concurrent.futures
 import csv
 import dataclasses
 import importlib.util
@@ -21,6 +20,7 @@ import pathlib
 import re
 import shutil
 import sys
+import time
 
 from . import authoring, mutants
 from .grader import Autograder, GradeResult, QuestionResult, TestResult, _bounded
@@ -310,29 +310,59 @@ def csv_cell(text) -> str:
     return "'" + text if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
 
 
-def _run_pool(tasks, jobs):
-    if jobs == 1 or len(tasks) == 1:
-        return [_grade_one(t) for t in tasks]
-    results: list = [None] * len(tasks)
+def _pool_child(task, conn):
+    conn.send(_grade_one(task))
+    conn.close()
+
+
+# Beyond the submission's own budget: the grader's start-up and result writing.
+HARD_MARGIN_SECONDS = 30.0
+
+
+def _run_pool(tasks, jobs, hard_limit):
+    """Each submission in its own grader process, killed after `hard_limit` seconds.
+
+    Whatever a submission makes the grader do (a reply that is slow to decode, a bug),
+    its process is killed at the wall-clock limit and the rest of the batch goes on.
+    """
+    from multiprocessing.connection import wait
+
     context = multiprocessing.get_context("spawn")
-    with concurrent.futures.ProcessPoolExecutor(jobs, mp_context=context) as pool:
-        futures = {pool.submit(_grade_one, t): i for i, t in enumerate(tasks)}
-        for future in concurrent.futures.as_completed(futures):
-            i = futures[future]
+    results: list = [None] * len(tasks)
+    pending, running = list(range(len(tasks))), {}
+    while pending or running:
+        while pending and len(running) < jobs:
+            i = pending.pop(0)
+            reader, writer = context.Pipe(duplex=False)
+            proc = context.Process(target=_pool_child, args=(tasks[i], writer), daemon=True)
+            proc.start()
+            writer.close()
+            running[reader] = (i, proc, time.monotonic())
+        for reader in wait(list(running), timeout=0.5):
+            i, proc, _ = running.pop(reader)
             try:
-                results[i] = future.result()
-            except Exception:  # the pool broke (a grader process died): retry below
-                results[i] = None
-    for i, task in enumerate(tasks):
-        if results[i] is None:  # alone in a fresh process, so one cannot stop the rest
-            with concurrent.futures.ProcessPoolExecutor(1, mp_context=context) as pool:
-                try:
-                    results[i] = pool.submit(_grade_one, task).result()
-                except Exception as exc:
-                    results[i] = GradeResult(
-                        task[2], [], [], [], 0.0, f"grader error: {exc!r}"[:2000]
-                    )
+                results[i] = reader.recv()
+            except (EOFError, OSError):
+                results[i] = _grader_error(tasks[i], "the grader process died")
+            reader.close()
+            proc.join(5)
+            if proc.is_alive():
+                proc.kill()
+        now = time.monotonic()
+        for reader, (i, proc, started) in list(running.items()):
+            if now - started > hard_limit:
+                proc.kill()
+                proc.join()
+                reader.close()
+                del running[reader]
+                results[i] = _grader_error(
+                    tasks[i], f"grading took longer than {hard_limit:g} s and was stopped"
+                )
     return results
+
+
+def _grader_error(task, text):
+    return GradeResult(task[2], [], [], [], 0.0, f"grader error: {text}"[:2000])
 
 
 def grade_many(submissions, autograder_dir, out_dir, *, jobs=None, limits=None):
@@ -348,9 +378,9 @@ def grade_many(submissions, autograder_dir, out_dir, *, jobs=None, limits=None):
     require_confinement()
     grader = Autograder(directory)
     labels = [_bounded(pathlib.Path(s).name, 200) for s in submissions]
-    results = _run_pool(
-        [(directory, s, lb, limits) for s, lb in zip(submissions, labels, strict=True)], jobs
-    )
+    tasks = [(directory, s, lb, limits) for s, lb in zip(submissions, labels, strict=True)]
+    hard_limit = grader.limits(limits).budget_seconds + HARD_MARGIN_SECONDS
+    results = _run_pool(tasks, jobs, hard_limit)
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     names = [q.name for q in grader.questions]
