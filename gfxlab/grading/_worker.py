@@ -171,16 +171,19 @@ class _Forbidden:
 
 
 def _via(banned):
-    """` (imported by `scipy.signal._x`)` when a module, not the student, imported it."""
-    frame = sys._getframe(2)
-    while frame is not None and frame.f_globals.get("__name__", "").startswith(
-        ("importlib", "_frozen_importlib")
-    ):
+    """` (imported through `scipy.signal` -> `scipy`)`: the modules that needed it."""
+    chain, frame = [], sys._getframe(2)
+    while frame is not None:
+        name = frame.f_globals.get("__name__")
+        if name == "__main__" or type(name) is not str:
+            break
+        if not name.startswith(("importlib", "_frozen_importlib", banned)):
+            if name not in chain:
+                chain.append(name)
         frame = frame.f_back
-    importer = frame.f_globals.get("__name__") if frame is not None else None
-    if type(importer) is not str or importer == "__main__" or importer.startswith(banned):
+    if not chain:
         return ""
-    return f" (imported by `{importer}`, which needs it)"
+    return " (imported through " + " -> ".join(f"`{n}`" for n in chain[::-1][:5]) + ")"
 
 
 def main():

@@ -110,7 +110,8 @@ def prove_tests(
     wrong answers); raises `AuthoringError` listing every weak test (the first one only
     with `fail_fast`).
     """
-    plan, cell = mutants.plan(grader.questions, grader.solution_cells())
+    public = [src for q in assignment.questions for src in q.public_source]
+    plan, cell = mutants.plan(grader.questions, grader.solution_cells(), public)
     reference, weak = mutants.grade_reference_and_mutants(
         grader, plan, cell, limits, fail_fast=fail_fast
     )
@@ -319,7 +320,7 @@ def _pool_child(task, conn):
 HARD_MARGIN_SECONDS = 30.0
 
 
-def _run_pool(tasks, jobs, hard_limit):
+def _run_pool(tasks, jobs, hard_limit, target=None):
     """Each submission in its own grader process, killed after `hard_limit` seconds.
 
     Whatever a submission makes the grader do (a reply that is slow to decode, a bug),
@@ -334,7 +335,9 @@ def _run_pool(tasks, jobs, hard_limit):
         while pending and len(running) < jobs:
             i = pending.pop(0)
             reader, writer = context.Pipe(duplex=False)
-            proc = context.Process(target=_pool_child, args=(tasks[i], writer), daemon=True)
+            proc = context.Process(
+                target=target or _pool_child, args=(tasks[i], writer), daemon=True
+            )
             proc.start()
             writer.close()
             running[reader] = (i, proc, time.monotonic())
