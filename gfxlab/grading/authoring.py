@@ -459,6 +459,19 @@ def student_code_cells(notebook) -> list[str]:
     return cells
 
 
+def student_code_cell_numbers(notebook) -> list[int]:
+    """For each cell of `student_code_cells`, its number as the student sees it: its
+    position among the notebook's code cells (`In [n]` after "Restart & Run All")."""
+    numbers, n = [], 0
+    for cell in notebook["cells"]:
+        if cell["cell_type"] != "code":
+            continue
+        n += 1
+        if "tests" not in cell["metadata"].get("gfxlab", {}):
+            numbers.append(n)
+    return numbers
+
+
 def check_student_notebook(assignment: Assignment) -> None:
     """Authoring errors visible in the student notebook itself."""
     hidden = {t.name for q in assignment.questions for t in q.tests if t.hidden}

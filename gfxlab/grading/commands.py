@@ -197,7 +197,8 @@ def check(notebook, *, limits=None) -> GradeResult:
     }
     grader.questions, grader._namespaces = [], {}
     prot = require_confinement()
-    session = grader.session(cells + [_CHECK_HELPER], limits)
+    numbers = authoring.student_code_cell_numbers(nb)
+    session = grader.session(cells + [_CHECK_HELPER], limits, [*numbers, 0])
     questions = []
     try:
         session.start()
