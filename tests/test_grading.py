@@ -282,6 +282,28 @@ def test_forbidden_module_message_names_the_importer():
     assert "(imported through `scipy.signal`" in message, message
 
 
+def test_cells_are_numbered_as_the_student_sees_them():
+    from gfxlab.grading.authoring import student_code_cell_numbers
+
+    nb = new_notebook(
+        cells=[
+            new_cell("markdown", "intro"),
+            new_cell("code", "x = 1"),
+            new_cell("code", "run_tests()", metadata={"gfxlab": {"tests": "q1"}}),
+            new_cell("code", "y = 2"),
+        ]
+    )
+    assert student_code_cell_numbers(nb) == [1, 3]
+
+
+def test_grade_help_shows_isolation_needs_no_autograder(capsys):
+    with pytest.raises(SystemExit):
+        main("grade", ["--help"])
+    usage = capsys.readouterr().out
+    assert "python -m gfxlab grade --isolation" in usage
+    assert "grade SUBMISSION --autograder DIR" in usage
+
+
 def test_check_array_messages():
     with pytest.raises(Feedback, match=r"should have shape \(any, 3\), got shape \(7, 2\)"):
         check_array(np.zeros((7, 2)), shape=(None, 3))

@@ -303,6 +303,9 @@ def test_every_attack_scores_only_its_honest_part(graded):
         "hash_bomb"
     ]
     assert "WireError" not in json.dumps(results), "internal class names are not shown"
+    # Cells numbered as the student sees them; a failure on a replay shows no text.
+    replay = results["replay_leak"]["output"]
+    assert re.search(r"code cell \d+ raised RuntimeError: sacrificial cell", replay), replay
 
 
 def test_file_names_metadata_and_size(graded):

@@ -141,6 +141,9 @@ class Protections:
             "uts and cgroup namespaces, new session, empty environment, dies with the grader",
             f"runs as {who}",
             f"resource limits: {self.limits_kind}",
+            "seccomp: memfd_create refused (memory no limit would count)"
+            if os.uname().machine in _SECCOMP_ARCH
+            else "seccomp: none for this architecture (memfd memory counts only in a cgroup)",
             "plain-data RPC over a dedicated pipe, strict decoder, per-request random id",
         ]
 
