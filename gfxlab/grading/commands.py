@@ -312,56 +312,78 @@ def csv_cell(text) -> str:
     return "'" + text if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
 
 
-def _pool_child(task, conn):
-    conn.send(_grade_one(task))
-    conn.close()
+def _pool_worker(conn, grade=None):
+    """A grader process: grades the tasks it is sent, one at a time, until `None`."""
+    grade = grade or _grade_one
+    while True:
+        task = conn.recv()
+        if task is None:
+            return
+        conn.send(grade(task))
 
 
 # Beyond the submission's own budget: the grader's start-up and result writing.
 HARD_MARGIN_SECONDS = 30.0
 
 
-def _run_pool(tasks, jobs, hard_limit, target=None):
-    """Each submission in its own grader process, killed after `hard_limit` seconds.
+class _Worker:
+    def __init__(self, context, grade):
+        self.conn, child = context.Pipe()
+        self.proc = context.Process(target=_pool_worker, args=(child, grade), daemon=True)
+        self.proc.start()
+        child.close()
+        self.task, self.started = None, 0.0
 
-    Whatever a submission makes the grader do (a reply that is slow to decode, a bug),
-    its process is killed at the wall-clock limit and the rest of the batch goes on.
+    def kill(self):
+        self.proc.kill()
+        self.proc.join()
+        self.conn.close()
+
+
+def _run_pool(tasks, jobs, hard_limit, grade=None):
+    """Grade `tasks` in `jobs` grader processes; one running past `hard_limit` seconds on
+    a submission is killed (and replaced), whatever happens in it, and the rest go on.
     """
     from multiprocessing.connection import wait
 
     context = multiprocessing.get_context("spawn")
     results: list = [None] * len(tasks)
-    pending, running = list(range(len(tasks))), {}
-    while pending or running:
-        while pending and len(running) < jobs:
-            i = pending.pop(0)
-            reader, writer = context.Pipe(duplex=False)
-            proc = context.Process(
-                target=target or _pool_child, args=(tasks[i], writer), daemon=True
-            )
-            proc.start()
-            writer.close()
-            running[reader] = (i, proc, time.monotonic())
-        for reader in wait(list(running), timeout=0.5):
-            i, proc, _ = running.pop(reader)
+    pending = list(range(len(tasks)))
+    workers = [_Worker(context, grade) for _ in range(max(1, min(jobs, len(tasks))))]
+    try:
+        while pending or any(w.task is not None for w in workers):
+            for w in workers:
+                if w.task is None and pending:
+                    w.task, w.started = pending.pop(0), time.monotonic()
+                    w.conn.send(tasks[w.task])
+            busy = {w.conn: w for w in workers if w.task is not None}
+            for conn in wait(list(busy), timeout=0.5):
+                w = busy[conn]
+                try:
+                    results[w.task] = conn.recv()
+                except (EOFError, OSError):  # the grader process died: a fresh one
+                    results[w.task] = _grader_error(tasks[w.task], "the grader process died")
+                    w.kill()
+                    workers[workers.index(w)] = _Worker(context, grade)
+                    continue
+                w.task = None
+            now = time.monotonic()
+            for i, w in enumerate(workers):
+                if w.task is not None and now - w.started > hard_limit:
+                    results[w.task] = _grader_error(
+                        tasks[w.task], f"grading took longer than {hard_limit:g} s and was stopped"
+                    )
+                    w.kill()
+                    workers[i] = _Worker(context, grade)
+    finally:
+        for w in workers:
             try:
-                results[i] = reader.recv()
-            except (EOFError, OSError):
-                results[i] = _grader_error(tasks[i], "the grader process died")
-            reader.close()
-            proc.join(5)
-            if proc.is_alive():
-                proc.kill()
-        now = time.monotonic()
-        for reader, (i, proc, started) in list(running.items()):
-            if now - started > hard_limit:
-                proc.kill()
-                proc.join()
-                reader.close()
-                del running[reader]
-                results[i] = _grader_error(
-                    tasks[i], f"grading took longer than {hard_limit:g} s and was stopped"
-                )
+                w.conn.send(None)
+            except OSError:
+                pass
+            w.proc.join(5)
+            if w.proc.is_alive():
+                w.kill()
     return results
 
 
