@@ -226,6 +226,84 @@ def test_codec_decoder_is_strict(raw):
         codec.decode(codec.loads(raw))
 
 
+def test_codec_refuses_hash_flooding_and_stops_at_its_deadline():
+    import time
+
+    # Ints that all share one hash: rebuilding the dict would be quadratic.
+    colliding = {"d": [[k * (2**61 - 1), 0] for k in range(1, codec.MAX_HASHED_KEYS + 2)]}
+    with pytest.raises(codec.WireError, match="dict keys that are not strings"):
+        codec.decode(colliding)
+    few = {"d": colliding["d"][: codec.MAX_HASHED_KEYS]}
+    assert len(codec.decode(few)) == codec.MAX_HASHED_KEYS
+    strings = {"d": [[f"k{k}", k] for k in range(50_000)]}  # str hashes are randomized
+    assert len(codec.decode(strings)) == 50_000
+    with pytest.raises(codec.WireError, match="took too long"):
+        codec.decode(strings, deadline=time.monotonic() - 1)
+
+
+def _hang(task):
+    import time
+
+    if task[2] == "hangs":
+        time.sleep(60)
+    return task[2]
+
+
+def test_batch_kills_a_submission_past_its_wall_clock_limit():
+    import time
+
+    from gfxlab.grading.commands import _run_pool
+
+    started = time.monotonic()
+    tasks = [(None, None, label, None) for label in ("a", "hangs", "b", "c")]
+    results = _run_pool(tasks, 2, 3.0, grade=_hang)
+    assert results[0] == "a" and results[2:] == ["b", "c"]
+    assert "longer than 3 s and was stopped" in results[1].error
+    assert time.monotonic() - started < 30
+
+
+def test_forbidden_module_message_names_the_importer():
+    cell = (
+        "try:\n    import scipy.signal\nexcept ImportError as exc:\n    MESSAGE = str(exc)\n"
+        "def get():\n    return MESSAGE\n"
+    )
+    with Sandbox(Limits(call_timeout=30), forbid=("scipy.fft",)) as box:
+        box.start()
+        box.request("exec", 60, cell=0, source=cell)
+        message = box.request(
+            "call",
+            30,
+            name="get",
+            transforms=codec.encode([]),
+            args=codec.encode([]),
+            kwargs=codec.encode({}),
+        )
+    assert "`scipy.fft` is not allowed in this assignment" in message
+    assert "(imported through `scipy.signal`" in message, message
+
+
+def test_cells_are_numbered_as_the_student_sees_them():
+    from gfxlab.grading.authoring import student_code_cell_numbers
+
+    nb = new_notebook(
+        cells=[
+            new_cell("markdown", "intro"),
+            new_cell("code", "x = 1"),
+            new_cell("code", "run_tests()", metadata={"gfxlab": {"tests": "q1"}}),
+            new_cell("code", "y = 2"),
+        ]
+    )
+    assert student_code_cell_numbers(nb) == [1, 3]
+
+
+def test_grade_help_shows_isolation_needs_no_autograder(capsys):
+    with pytest.raises(SystemExit):
+        main("grade", ["--help"])
+    usage = capsys.readouterr().out
+    assert "python -m gfxlab grade --isolation" in usage
+    assert "grade SUBMISSION --autograder DIR" in usage
+
+
 def test_check_array_messages():
     with pytest.raises(Feedback, match=r"should have shape \(any, 3\), got shape \(7, 2\)"):
         check_array(np.zeros((7, 2)), shape=(None, 3))

@@ -286,10 +286,26 @@ def test_every_attack_scores_only_its_honest_part(graded):
     public, hidden_part = leak.split("FAIL hidden test 1", 1)
     assert "got shape (10007, 1)" in public  # the student's own output for a public input
     assert hidden_part.splitlines()[1:3] == [
-        "    `midpoint_circle_trace` raised ValueError",
+        "    `midpoint_circle_trace` raised an exception",
         "FAIL hidden test 2",
     ], leak
     assert "shape" not in hidden_part and "LEAK" not in hidden_part
+    # Hidden failures never name the exception the student chose.
+    for kind in ("KeyError", "IndexError", "ZeroDivisionError", "LookupError"):
+        assert kind not in json.dumps(results["exception_name"]), kind
+    assert "raised an exception" in feedback["exception_name"]
+    # memfd_create is refused by the seccomp filter: no memory outside every limit.
+    assert "MEMFD 0 MB" in feedback["memfd_hoard"], feedback["memfd_hoard"]
+    assert "`skimage.draw` is not allowed in this assignment" in json.dumps(
+        results["forbidden_library"]
+    )
+    assert "the reply" in feedback["hash_bomb"] or "dict keys" in feedback["hash_bomb"], feedback[
+        "hash_bomb"
+    ]
+    assert "WireError" not in json.dumps(results), "internal class names are not shown"
+    # Cells numbered as the student sees them; a failure on a replay shows no text.
+    replay = results["replay_leak"]["output"]
+    assert re.search(r"code cell \d+ raised RuntimeError: sacrificial cell", replay), replay
 
 
 def test_file_names_metadata_and_size(graded):

@@ -103,6 +103,52 @@ def test_assign_refuses_tests_needing_a_missing_library(tmp_path):
         assign(tmp_path / "src.ipynb", tmp_path / "out", verify_tests=False)
 
 
+def test_assign_refuses_public_tests_whose_helpers_are_the_solution(tmp_path):
+    """Public-test cells are copied into the handout: a helper there that computes the
+    answer is a wrong answer `assign` tries (and refuses)."""
+    nb = new_notebook(
+        cells=[
+            new_cell("raw", "# BEGIN QUESTION\nname: q1\npoints: 5"),
+            new_cell("code", "def double(x):\n    return 2 * x  # SOLUTION"),
+            new_cell(
+                "code",
+                "# BEGIN TESTS\ndef _twice(value):\n    return value + value\n\n\n"
+                "def test_d(double):\n    assert double(3) == _twice(3)\n# END TESTS",
+            ),
+            new_cell(
+                "code",
+                '# BEGIN TESTS\n""" # BEGIN TEST CONFIG\nhidden: true\n""" # END TEST CONFIG\n'
+                "def test_h(double):\n    for x in (5, -7, 11):\n        assert double(x) == 2 * x"
+                "\n# END TESTS",
+            ),
+            new_cell("raw", "# END QUESTION"),
+        ]
+    )
+    write_notebook(nb, tmp_path / "src.ipynb")
+    with pytest.raises(AuthoringError, match="the public-test helper `_twice` passes test_d"):
+        assign(tmp_path / "src.ipynb", tmp_path / "out")
+
+
+@pytest.mark.parametrize(
+    "name, helper", [("03_bezier", "_curve"), ("04_jpeg_block", "_zigzag_order")]
+)
+def test_assign_refuses_a_shipped_handout_with_the_solution_in_its_public_tests(
+    name, helper, tmp_path
+):
+    """The red team's finding: helpers that compute the answer in public-test cells."""
+    nb = read_notebook(ASSIGNMENTS / f"{name}.ipynb")
+    cells = [c for c in nb["cells"] if c["cell_type"] == "code" and "# BEGIN TESTS" in c["source"]]
+    hidden = next(c for c in cells if f"def {helper}(" in c["source"])
+    node = next(n for n in ast.parse(hidden["source"]).body if getattr(n, "name", None) == helper)
+    public = next(c for c in cells if "hidden: true" not in c["source"])
+    public["source"] = public["source"].replace(
+        "# END TESTS", ast.get_source_segment(hidden["source"], node) + "\n# END TESTS"
+    )
+    write_notebook(nb, tmp_path / f"{name}.ipynb")
+    with pytest.raises(AuthoringError, match=rf"the public-test helper `{helper}`"):
+        assign(tmp_path / f"{name}.ipynb", tmp_path / "out", fail_fast=True)
+
+
 def _run_all(nb: dict, workdir: pathlib.Path) -> str:
     """Execute every cell in a fresh kernel; the text of all outputs (raises on an error)."""
     node = nbformat.from_dict(copy.deepcopy(nb))
@@ -155,6 +201,15 @@ def test_forbidden_modules_are_announced(student_notebooks):
     text = "\n".join(c["source"] for c in student["cells"] if c["cell_type"] == "markdown")
     assert "**Not allowed in this assignment:** `gfxlab.jpeg`, `scipy.fft`" in text
     assert student["metadata"]["gfxlab"]["forbid"][0] == "gfxlab.jpeg"
+    # Libraries that solve an assignment are forbidden in it, and the handout says so.
+    for name, library in [
+        ("01_midpoint_circle", "`skimage.draw`"),
+        ("02_cohen_sutherland", "`shapely`"),
+        ("03_bezier", "`bezier`, `scipy.interpolate`"),
+    ]:
+        cells = student_notebooks[name][0]["cells"]
+        text = "\n".join(c["source"] for c in cells if c["cell_type"] == "markdown")
+        assert library in text and "fails with an `ImportError`" in text, name
 
 
 def test_check_runs_the_notebook_tests_in_the_sandbox(student_notebooks, tmp_path, capsys):

@@ -17,7 +17,7 @@ import sys
 import traceback
 
 if "encode" not in globals():  # imported as a module (linting, tests), not run as the worker
-    from gfxlab.grading.codec import decode, dumps, encode, loads
+    from gfxlab.grading.codec import WireError, decode, dumps, encode, loads
 
 TRANSFORMS = ("jit", "grad", "value_and_grad", "vmap")
 
@@ -122,7 +122,8 @@ def _describe(exc):
         for f in traceback.extract_tb(exc.__traceback__)
         if f.filename.startswith("<cell")
     ]
-    text = f"{type(exc).__name__}: {exc}"
+    kind = "the returned value" if type(exc) is WireError else type(exc).__name__
+    text = f"{kind}: {exc}"
     if frames:
         text += "\n" + "\n".join(frames[-6:])
     return text[:4000]
@@ -165,8 +166,24 @@ class _Forbidden:
     def find_spec(self, name, path=None, target=None):
         for banned in self.names:
             if name == banned or name.startswith(banned + "."):
-                raise ImportError(f"`{banned}` is not allowed in this assignment")
+                raise ImportError(f"`{banned}` is not allowed in this assignment" + _via(banned))
         return None
+
+
+def _via(banned):
+    """` (imported through `scipy.signal` -> `scipy`)`: the modules that needed it."""
+    chain, frame = [], sys._getframe(2)
+    while frame is not None:
+        name = frame.f_globals.get("__name__")
+        if name == "__main__" or type(name) is not str:
+            break
+        if not name.startswith(("importlib", "_frozen_importlib", banned)):
+            if name not in chain:
+                chain.append(name)
+        frame = frame.f_back
+    if not chain:
+        return ""
+    return " (imported through " + " -> ".join(f"`{n}`" for n in chain[::-1][:5]) + ")"
 
 
 def main():

@@ -431,8 +431,11 @@ def _forbid_cell(config: dict) -> dict | None:
     names = ", ".join(f"`{m}`" for m in forbid)
     return new_cell(
         "markdown",
-        f"**Not allowed in this assignment:** {names}. The grader "
-        "makes these modules unimportable; code using them scores 0.",
+        f"**Not allowed in this assignment:** {names} (and their submodules). The grader "
+        "makes these modules unimportable: a cell that imports one fails with an "
+        "`ImportError` there, so what it defines is missing and the tests that need it "
+        "score 0. A module that itself needs a forbidden one cannot be imported either "
+        "(the message names both).",
     )
 
 
@@ -454,6 +457,19 @@ def student_code_cells(notebook) -> list[str]:
             lines.append(line)
         cells.append("\n".join(lines))
     return cells
+
+
+def student_code_cell_numbers(notebook) -> list[int]:
+    """For each cell of `student_code_cells`, its number as the student sees it: its
+    position among the notebook's code cells (`In [n]` after "Restart & Run All")."""
+    numbers, n = [], 0
+    for cell in notebook["cells"]:
+        if cell["cell_type"] != "code":
+            continue
+        n += 1
+        if "tests" not in cell["metadata"].get("gfxlab", {}):
+            numbers.append(n)
+    return numbers
 
 
 def check_student_notebook(assignment: Assignment) -> None:

@@ -33,7 +33,10 @@ def _limits(args) -> dict:
 def _assign(argv) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m gfxlab assign",
-        description="Split an instructor notebook into OUT/student/ and OUT/autograder/.",
+        description="Split an instructor notebook into OUT/student/ and OUT/autograder/. "
+        "Public-test cells are copied verbatim into the student notebook (the handout): "
+        "nothing in them may compute the answer; `assign` tries each helper function "
+        "defined there as a wrong answer and refuses the assignment if one earns marks.",
     )
     parser.add_argument("source", type=pathlib.Path, help="instructor notebook (.ipynb)")
     parser.add_argument("out", type=pathlib.Path, help="output directory")
@@ -102,6 +105,8 @@ def _grade(argv) -> int:
         return 0
     parser = argparse.ArgumentParser(
         prog="python -m gfxlab grade",
+        usage="python -m gfxlab grade SUBMISSION --autograder DIR [options]\n"
+        "       python -m gfxlab grade --isolation",
         description="Grade a submitted notebook, or every .ipynb in a folder in parallel.",
     )
     parser.add_argument("submission", type=pathlib.Path, help="notebook or folder of notebooks")
@@ -109,7 +114,7 @@ def _grade(argv) -> int:
         "--autograder",
         type=pathlib.Path,
         required=True,
-        help="the autograder directory written by `assign`",
+        help="the autograder directory written by `assign` (required to grade)",
     )
     parser.add_argument(
         "--out",

@@ -19,6 +19,10 @@ import numpy as np
 MAX_MESSAGE_BYTES = 64 * 2**20
 MAX_DEPTH = 32
 MAX_ITEMS = 2_000_000
+# Keys other than `str` have a hash the sender can choose (ints, floats, tuples all
+# colliding): a few thousand at most, so rebuilding a dict can never take quadratic time.
+# (`str` hashes are randomized per process.)
+MAX_HASHED_KEYS = 2_000
 ALLOWED_DTYPES = frozenset(
     ["bool", "int8", "int16", "int32", "int64", "uint8", "uint16", "uint32", "uint64"]
     + ["float16", "float32", "float64", "complex64", "complex128"]
@@ -68,18 +72,37 @@ def encode(value, _depth=0):
 
 
 class _Budget:
-    def __init__(self):
+    def __init__(self, deadline=None):
         self.items = 0
+        self.keys = 0
+        self.deadline = deadline
 
     def take(self, n):
         self.items += n
         if self.items > MAX_ITEMS:
             raise WireError(f"more than {MAX_ITEMS} values")
+        if self.deadline is not None and self.items % 4096 < n + 1:
+            import time
+
+            if time.monotonic() > self.deadline:
+                raise WireError("the reply took too long to read")
+
+    def key(self, key):
+        if type(key) is not str:
+            self.keys += 1
+            if self.keys > MAX_HASHED_KEYS:
+                raise WireError(
+                    f"more than {MAX_HASHED_KEYS} dict keys that are not strings; "
+                    "return a list of pairs instead"
+                )
 
 
-def decode(obj, _depth=0, _budget=None):
-    """Inverse of `encode`, strict: anything unexpected raises `WireError`."""
-    budget = _Budget() if _budget is None else _budget
+def decode(obj, _depth=0, _budget=None, *, deadline=None):
+    """Inverse of `encode`, strict: anything unexpected raises `WireError`.
+
+    `deadline` (a `time.monotonic()` value) bounds the time spent decoding.
+    """
+    budget = _Budget(deadline) if _budget is None else _budget
     budget.take(1)
     if _depth > MAX_DEPTH:
         raise WireError(f"nested deeper than {MAX_DEPTH} levels")
@@ -107,6 +130,7 @@ def decode(obj, _depth=0, _budget=None):
                 key = decode(pair[0], _depth + 1, budget)
                 if type(key) not in (str, int, float, bool, tuple) and key is not None:
                     raise WireError("dict keys must be numbers, strings or tuples")
+                budget.key(key)
                 try:
                     out[key] = decode(pair[1], _depth + 1, budget)
                 except TypeError:

@@ -10,7 +10,6 @@ code (and, for `check`, the notebook's own test cells) in the sandbox.
 from __future__ import annotations
 
 import ast
-import concurrent.futures
 import csv
 import dataclasses
 import importlib.util
@@ -21,6 +20,7 @@ import pathlib
 import re
 import shutil
 import sys
+import time
 
 from . import authoring, mutants
 from .grader import Autograder, GradeResult, QuestionResult, TestResult, _bounded
@@ -110,7 +110,8 @@ def prove_tests(
     wrong answers); raises `AuthoringError` listing every weak test (the first one only
     with `fail_fast`).
     """
-    plan, cell = mutants.plan(grader.questions, grader.solution_cells())
+    public = [src for q in assignment.questions for src in q.public_source]
+    plan, cell = mutants.plan(grader.questions, grader.solution_cells(), public)
     reference, weak = mutants.grade_reference_and_mutants(
         grader, plan, cell, limits, fail_fast=fail_fast
     )
@@ -196,7 +197,8 @@ def check(notebook, *, limits=None) -> GradeResult:
     }
     grader.questions, grader._namespaces = [], {}
     prot = require_confinement()
-    session = grader.session(cells + [_CHECK_HELPER], limits)
+    numbers = authoring.student_code_cell_numbers(nb)
+    session = grader.session(cells + [_CHECK_HELPER], limits, [*numbers, 0])
     questions = []
     try:
         session.start()
@@ -310,29 +312,83 @@ def csv_cell(text) -> str:
     return "'" + text if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
 
 
-def _run_pool(tasks, jobs):
-    if jobs == 1 or len(tasks) == 1:
-        return [_grade_one(t) for t in tasks]
-    results: list = [None] * len(tasks)
+def _pool_worker(conn, grade=None):
+    """A grader process: grades the tasks it is sent, one at a time, until `None`."""
+    grade = grade or _grade_one
+    while True:
+        task = conn.recv()
+        if task is None:
+            return
+        conn.send(grade(task))
+
+
+# Beyond the submission's own budget: the grader's start-up and result writing.
+HARD_MARGIN_SECONDS = 30.0
+
+
+class _Worker:
+    def __init__(self, context, grade):
+        self.conn, child = context.Pipe()
+        self.proc = context.Process(target=_pool_worker, args=(child, grade), daemon=True)
+        self.proc.start()
+        child.close()
+        self.task, self.started = None, 0.0
+
+    def kill(self):
+        self.proc.kill()
+        self.proc.join()
+        self.conn.close()
+
+
+def _run_pool(tasks, jobs, hard_limit, grade=None):
+    """Grade `tasks` in `jobs` grader processes; one running past `hard_limit` seconds on
+    a submission is killed (and replaced), whatever happens in it, and the rest go on.
+    """
+    from multiprocessing.connection import wait
+
     context = multiprocessing.get_context("spawn")
-    with concurrent.futures.ProcessPoolExecutor(jobs, mp_context=context) as pool:
-        futures = {pool.submit(_grade_one, t): i for i, t in enumerate(tasks)}
-        for future in concurrent.futures.as_completed(futures):
-            i = futures[future]
-            try:
-                results[i] = future.result()
-            except Exception:  # the pool broke (a grader process died): retry below
-                results[i] = None
-    for i, task in enumerate(tasks):
-        if results[i] is None:  # alone in a fresh process, so one cannot stop the rest
-            with concurrent.futures.ProcessPoolExecutor(1, mp_context=context) as pool:
+    results: list = [None] * len(tasks)
+    pending = list(range(len(tasks)))
+    workers = [_Worker(context, grade) for _ in range(max(1, min(jobs, len(tasks))))]
+    try:
+        while pending or any(w.task is not None for w in workers):
+            for w in workers:
+                if w.task is None and pending:
+                    w.task, w.started = pending.pop(0), time.monotonic()
+                    w.conn.send(tasks[w.task])
+            busy = {w.conn: w for w in workers if w.task is not None}
+            for conn in wait(list(busy), timeout=0.5):
+                w = busy[conn]
                 try:
-                    results[i] = pool.submit(_grade_one, task).result()
-                except Exception as exc:
-                    results[i] = GradeResult(
-                        task[2], [], [], [], 0.0, f"grader error: {exc!r}"[:2000]
+                    results[w.task] = conn.recv()
+                except (EOFError, OSError):  # the grader process died: a fresh one
+                    results[w.task] = _grader_error(tasks[w.task], "the grader process died")
+                    w.kill()
+                    workers[workers.index(w)] = _Worker(context, grade)
+                    continue
+                w.task = None
+            now = time.monotonic()
+            for i, w in enumerate(workers):
+                if w.task is not None and now - w.started > hard_limit:
+                    results[w.task] = _grader_error(
+                        tasks[w.task], f"grading took longer than {hard_limit:g} s and was stopped"
                     )
+                    w.kill()
+                    workers[i] = _Worker(context, grade)
+    finally:
+        for w in workers:
+            try:
+                w.conn.send(None)
+            except OSError:
+                pass
+            w.proc.join(5)
+            if w.proc.is_alive():
+                w.kill()
     return results
+
+
+def _grader_error(task, text):
+    return GradeResult(task[2], [], [], [], 0.0, f"grader error: {text}"[:2000])
 
 
 def grade_many(submissions, autograder_dir, out_dir, *, jobs=None, limits=None):
@@ -348,9 +404,9 @@ def grade_many(submissions, autograder_dir, out_dir, *, jobs=None, limits=None):
     require_confinement()
     grader = Autograder(directory)
     labels = [_bounded(pathlib.Path(s).name, 200) for s in submissions]
-    results = _run_pool(
-        [(directory, s, lb, limits) for s, lb in zip(submissions, labels, strict=True)], jobs
-    )
+    tasks = [(directory, s, lb, limits) for s, lb in zip(submissions, labels, strict=True)]
+    hard_limit = grader.limits(limits).budget_seconds + HARD_MARGIN_SECONDS
+    results = _run_pool(tasks, jobs, hard_limit)
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     names = [q.name for q in grader.questions]

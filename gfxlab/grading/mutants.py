@@ -5,7 +5,10 @@ for every function a question tests, a version returning `None`, the first input
 unchanged, zeros like the right result, the right result plus or minus one (numbers
 only), a constant (the right result of the test's first call, returned for every call:
 a hard-coded answer), and for every parameter the right function with that input
-replaced by zeros (a loss that ignores its data). All of them run in one sandboxed
+replaced by zeros (a loss that ignores its data), and every helper function of the
+public-test cells (copied verbatim into the handout) used as the answer, called with the
+same inputs: a handout whose public tests compute the answer is refused. All of them
+run in one sandboxed
 student process next to the reference. Any test a wrong answer passes is reported, and
 `assign` refuses the assignment.
 """
@@ -33,12 +36,57 @@ def _gx_traced(value):
     return type(value).__module__.startswith("jax") and "Tracer" in type(value).__name__
 
 
+def _gx_public(sources):
+    import numpy
+
+    found = {}
+    for source in sources:
+        namespace = dict(globals())
+        namespace.setdefault("np", numpy)
+        namespace.setdefault("check_array", lambda value, **options: value)
+        namespace["run_tests"] = lambda *a, **k: None
+        try:
+            exec(source, namespace)
+        except Exception:
+            continue
+        for key, value in namespace.items():
+            if callable(value) and key not in globals() and not key.startswith("test"):
+                found[key] = value
+    return found
+
+
+def _gx_apply(made, x):
+    # What a helper without inputs made, applied to the first input: a matrix as a
+    # (separable) transform, a list of index tuples as an order to read the input in.
+    import numpy
+
+    x = numpy.asarray(x)
+    if type(made) in (list, tuple) and made and all(type(i) is tuple for i in made):
+        return numpy.array([x[i] for i in made], dtype=x.dtype)
+    made = numpy.asarray(made)
+    if made.ndim != 2:
+        raise TypeError("not a transform")
+    return made @ x @ made.T if x.ndim == 2 else made @ x
+
+
 def _gx_mutant(ref, kind, arg=None):
     memo = []
 
     def mutant(*args, **kwargs):
         if kind == "none":
             return None
+        if kind in ("helper", "helper1", "helper0"):
+            if arg is None:
+                raise TypeError("the helper did not load")
+            if kind == "helper":
+                return arg(*args, **kwargs)
+            if kind == "helper0":
+                return _gx_apply(arg(), args[0])
+            import numpy  # numbers as length-1 arrays, the result's first row back
+
+            args = [numpy.atleast_1d(a) if numpy.ndim(a) == 0 else a for a in args]
+            result = arg(*args, **kwargs)
+            return result[0] if numpy.ndim(result) and len(result) == 1 else result
         if kind == "identity":
             return args[0] if args else None
         if kind == "ignore":
@@ -87,10 +135,20 @@ def _arity(cells: list[str]) -> dict[str, int]:
     return out
 
 
-def plan(questions: list[authoring.Question], solution_cells: list[str]):
-    """The mutants of every tested function and the cell that defines them."""
+def plan(questions: list[authoring.Question], solution_cells: list[str], public=None):
+    """The mutants of every tested function and the cell that defines them.
+
+    `public`: the public-test cells' sources (default: the questions' `public_source`).
+    """
     arity = _arity(solution_cells)
-    mutants, lines = [], [HELPERS]
+    if public is None:
+        public = [src for q in questions for src in q.public_source]
+    helpers = {
+        name: n
+        for name, n in _arity(public).items()
+        if not name.startswith("test") and name not in arity
+    }
+    mutants, lines = [], [HELPERS, f"_gx_pub = _gx_public({public!r})"]
 
     def add(question, function, kind, call, tests=None):
         name = f"_gx_{function}_{len(mutants)}"
@@ -105,6 +163,14 @@ def plan(questions: list[authoring.Question], solution_cells: list[str]):
                 add(q, function, kind, f"{kind!r}")
             for i in range(arity[function]):
                 add(q, function, f"ignore input {i + 1}", f"'ignore', {i}")
+            for helper, n in helpers.items():
+                if n == 0:
+                    call = f"'helper0', _gx_pub.get({helper!r})"
+                    add(q, function, f"= the public-test helper `{helper}` applied", call)
+                if n == arity[function]:
+                    for kind in ("helper", "helper1"):
+                        call = f"{kind!r}, _gx_pub.get({helper!r})"
+                        add(q, function, f"= the public-test helper `{helper}`", call)
             for t in q.tests:
                 if function in t.params:  # a fresh memo per test: its first answer is right
                     add(q, function, f"constant ({t.name})", "'const'", (t.name,))

@@ -141,6 +141,9 @@ class Protections:
             "uts and cgroup namespaces, new session, empty environment, dies with the grader",
             f"runs as {who}",
             f"resource limits: {self.limits_kind}",
+            "seccomp: memfd_create refused (memory no limit would count)"
+            if os.uname().machine in _SECCOMP_ARCH
+            else "seccomp: none for this architecture (memfd memory counts only in a cgroup)",
             "plain-data RPC over a dedicated pipe, strict decoder, per-request random id",
         ]
 
@@ -193,6 +196,33 @@ def require_confinement() -> Protections:
     if not prot.confined:
         raise IsolationUnavailable(f"refusing to run student code: {prot.problem}")
     return prot
+
+
+# Seccomp (classic BPF, given to bwrap): memfd_create and memfd_secret fail with EPERM.
+# Their pages are seen neither by RLIMIT_AS nor by the resident-memory watch, so without
+# a cgroup a submission could hold any amount of memory in them.
+_SECCOMP_ARCH = {"x86_64": (0xC000003E, (319, 447)), "aarch64": (0xC00000B7, (279, 447))}
+
+
+def seccomp_program() -> bytes | None:
+    """The filter for this machine's architecture (None where it is not known)."""
+    arch = _SECCOMP_ARCH.get(os.uname().machine)
+    if arch is None:
+        return None
+    audit, (memfd, secret) = arch
+    allow, deny = 0x7FFF0000, 0x00050000 | 1  # SECCOMP_RET_ALLOW, SECCOMP_RET_ERRNO|EPERM
+    program = [
+        (0x20, 0, 0, 4),  # A = arch
+        (0x15, 1, 0, audit),  # native arch: go on
+        (0x06, 0, 0, deny),  # any other (32-bit) arch: refused
+        (0x20, 0, 0, 0),  # A = syscall number
+        (0x35, 3, 0, 0x40000000),  # x32 ABI: refused
+        (0x15, 2, 0, memfd),
+        (0x15, 1, 0, secret),
+        (0x06, 0, 0, allow),
+        (0x06, 0, 0, deny),
+    ]
+    return b"".join(struct.pack("<HBBI", *insn) for insn in program)
 
 
 class SandboxError(Exception):
@@ -305,6 +335,8 @@ class Sandbox:
         if not _package_inside():
             args += ["--ro-bind", str(_PACKAGE), f"{_PACKAGE_TARGET}/gfxlab"]
         args += self._forbid_args()
+        if getattr(self, "_seccomp_fd", None) is not None:
+            args += ["--seccomp", str(self._seccomp_fd)]
         args += ["--proc", "/proc", "--dev", "/dev"]
         if self.uid is not None:  # the launcher mounts them, bounded in size and inodes
             args += [
@@ -377,6 +409,14 @@ class Sandbox:
         self._make_cgroup()
         req_r, self._req_w = os.pipe()
         self._rep_r, rep_w = os.pipe()
+        self._seccomp_fd = None
+        program = seccomp_program()
+        if program is not None:
+            path = os.path.join(self.workdir, ".seccomp")
+            with open(path, "wb") as f:
+                f.write(program)
+            self._seccomp_fd = os.open(path, os.O_RDONLY)
+        extra = () if self._seccomp_fd is None else (self._seccomp_fd,)
         output = open(os.path.join(self.workdir, ".output"), "wb")  # noqa: SIM115
         scratch = []
         if self.uid is not None:
@@ -400,7 +440,7 @@ class Sandbox:
                 stdin=subprocess.DEVNULL,
                 stdout=output,
                 stderr=subprocess.STDOUT,
-                pass_fds=(req_r, rep_w),
+                pass_fds=(req_r, rep_w, *extra),
                 close_fds=True,
                 start_new_session=True,
                 env={"PATH": "/usr/bin:/bin", "LANG": "C.UTF-8"},
@@ -409,6 +449,8 @@ class Sandbox:
             os.close(req_r)
             os.close(rep_w)
             output.close()
+            if self._seccomp_fd is not None:
+                os.close(self._seccomp_fd)
         os.set_blocking(self._req_w, False)
         deadline = time.monotonic() + self.limits.start_timeout
         try:
@@ -456,7 +498,7 @@ class Sandbox:
             error = reply.get("error")
             raise StudentError(error if type(error) is str else "error")
         try:
-            return codec.decode(reply.get("value"))
+            return codec.decode(reply.get("value"), deadline=max(deadline, time.monotonic() + 5))
         except codec.WireError as exc:
             raise ProtocolError(f"unreadable value: {exc}") from None
 

@@ -466,6 +466,76 @@ time.sleep(60)
 while True:
     pass
 """,
+    # The worker's own `encode` replaced: a dict of int keys that all collide in hash,
+    # rebuilt by the grader (quadratic, outside every timeout) unless the decoder refuses.
+    "hash_bomb": """
+import sys
+
+_main = sys.modules["__main__"]
+_orig_encode = _main.encode
+
+
+def _encode(value, _depth=0):
+    if type(value) is str and value == "BOMB":
+        return {{"d": [[k * (2**61 - 1), 0] for k in range(1, 30001)]}}
+    return _orig_encode(value, _depth)
+
+
+_main.encode = _encode
+
+
+def midpoint_circle_trace(r):
+    return "BOMB"
+""",
+    # A cell that fails on purpose (so it is never replayed) and one that raises only on a
+    # replay after a hidden call crashed: its text must never reach the student.
+    "replay_leak": """
+_first_run = True
+raise RuntimeError("sacrificial cell")
+# %% cell
+import os
+
+if "_first_run" not in globals():
+    raise RuntimeError("LEAKED-ARGUMENT on replay")
+
+
+def midpoint_circle_trace(r):
+    if r not in (10, 3):
+        os._exit(1)
+    return None
+""",
+    # The built-in exception's name chosen by a hidden input.
+    "exception_name": """
+def midpoint_circle_trace(r):
+    if r not in (10, 3):
+        raise [KeyError, IndexError, ZeroDivisionError, LookupError][r % 4]("x")
+    return None
+""",
+    # memfd pages: seen neither by RLIMIT_AS nor by the resident-memory watch.
+    "memfd_hoard": """
+import os
+
+
+def midpoint_circle_trace(r):
+    fds, why = [], "ok"
+    try:
+        while len(fds) < 200:
+            fd = os.memfd_create("x")
+            for _ in range(7):
+                os.write(fd, b"\\x01" * 2**20)
+            fds.append(fd)
+    except OSError as exc:
+        why = exc.strerror
+    raise RuntimeError(f"MEMFD {{len(fds) * 7}} MB ({{why}})")
+""",
+    # A library that solves the assignment, forbidden for it.
+    "forbidden_library": """
+from skimage.draw import circle_perimeter
+
+
+def midpoint_circle_trace(r):
+    return circle_perimeter(0, 0, r)
+""",
 }
 
 # Attacks that replace no function: q1 is left unsolved instead.
@@ -491,7 +561,7 @@ def submission_cells(reference_cells, attack, **context):
                 cells.append(code)
                 cells.append("def midpoint_circle_trace(r):\n    return None\n")
             else:
-                cells.append(code)
+                cells.extend(code.split("# %% cell\n"))
         else:
             cells.append(cell)
     return cells
