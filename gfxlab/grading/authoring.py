@@ -68,6 +68,7 @@ def read_notebook(path) -> dict:
 
 
 def new_cell(kind: str, source: str, metadata: dict | None = None) -> dict:
+    """A new notebook cell of type `kind` (code cells get empty outputs)."""
     cell = {
         "cell_type": kind,
         "id": uuid.uuid4().hex[:8],
@@ -80,6 +81,7 @@ def new_cell(kind: str, source: str, metadata: dict | None = None) -> dict:
 
 
 def new_notebook(metadata: dict | None = None, cells: list | None = None) -> dict:
+    """A new, empty nbformat 4.5 notebook (a plain dict)."""
     return {"cells": cells or [], "metadata": metadata or {}, "nbformat": 4, "nbformat_minor": 5}
 
 
@@ -129,6 +131,7 @@ class Question:
 
     @property
     def functions(self) -> tuple[str, ...]:
+        """The student functions the tests take, in order of first use."""
         return tuple(dict.fromkeys(p for t in self.tests for p in t.params))
 
 
@@ -244,88 +247,126 @@ def _split_tests(source: str, question: Question, cell_hidden: bool, weight: flo
     return public, full
 
 
-def parse_notebook(notebook) -> Assignment:
-    """Parse an instructor notebook (path or `NotebookNode`) into an `Assignment`."""
+@dataclasses.dataclass
+class _ParseState:
+    """What `parse_notebook` has collected so far, and which marker regions are open."""
+
+    questions: list[Question] = dataclasses.field(default_factory=list)
+    student_cells: list = dataclasses.field(default_factory=list)
+    solution_cells: list = dataclasses.field(default_factory=list)
+    question: Question | None = None
+    in_tests: bool = False
+    in_solution: bool = False
+    in_prompt: bool = False
+
+
+_RAW_MARKERS = (
+    (_BEGIN_TESTS, "t+"),
+    (_END_TESTS, "t-"),
+    (_BEGIN_SOL, "s+"),
+    (_END_SOL, "s-"),
+    (_BEGIN_PROMPT, "p+"),
+    (_END_PROMPT, "p-"),
+)
+
+
+def _load_named(notebook) -> tuple[dict, str]:
+    """Read `notebook` if it is a path; return it with its default assignment name."""
     if not isinstance(notebook, dict):
         name = str(notebook).rsplit("/", 1)[-1].removesuffix(".ipynb")
-        notebook = read_notebook(notebook)
-    else:
-        name = "assignment"
-    config = dict(notebook["metadata"].get("gfxlab", {}))
-    name = config.get("name", name)
-    questions: list[Question] = []
-    student_cells, solution_cells = [], []
-    question: Question | None = None
-    in_tests = in_solution = in_prompt = False
+        return read_notebook(notebook), name
+    return notebook, "assignment"
 
-    def text_of(cell):
-        return cell["source"] if isinstance(cell["source"], str) else "".join(cell["source"])
 
-    for cell in notebook["cells"]:
-        src = text_of(cell)
-        lines = src.splitlines()
-        first = next((ln for ln in lines if ln.strip()), "")
-        if cell["cell_type"] in ("raw", "markdown") and _BEGIN_Q.match(first):
-            if question is not None:
-                raise AuthoringError(f"question {question.name} has no `# END QUESTION`")
-            question = _open_question(cell, src, questions, student_cells)
-            continue
-        if cell["cell_type"] in ("raw", "markdown") and _END_Q.match(first):
-            if question is None:
-                raise AuthoringError("`# END QUESTION` without `# BEGIN QUESTION`")
-            student_cells.append(_public_test_cell(question))
-            question = None
-            continue
-        if cell["cell_type"] == "raw":
-            for pattern, flag in (
-                (_BEGIN_TESTS, "t+"),
-                (_END_TESTS, "t-"),
-                (_BEGIN_SOL, "s+"),
-                (_END_SOL, "s-"),
-                (_BEGIN_PROMPT, "p+"),
-                (_END_PROMPT, "p-"),
-            ):
-                if pattern.match(first):
-                    if flag[0] == "t":
-                        in_tests = flag[1] == "+"
-                    elif flag[0] == "s":
-                        in_solution = flag[1] == "+"
-                    else:
-                        in_prompt = flag[1] == "+"
-                    break
+def _cell_text(cell) -> str:
+    return cell["source"] if isinstance(cell["source"], str) else "".join(cell["source"])
+
+
+def _question_marker(state: _ParseState, cell, src: str, first: str) -> bool:
+    """Handle a `# BEGIN/END QUESTION` cell; `False` if `cell` is not one."""
+    if cell["cell_type"] not in ("raw", "markdown"):
+        return False
+    if _BEGIN_Q.match(first):
+        if state.question is not None:
+            raise AuthoringError(f"question {state.question.name} has no `# END QUESTION`")
+        state.question = _open_question(cell, src, state.questions, state.student_cells)
+        return True
+    if _END_Q.match(first):
+        if state.question is None:
+            raise AuthoringError("`# END QUESTION` without `# BEGIN QUESTION`")
+        state.student_cells.append(_public_test_cell(state.question))
+        state.question = None
+        return True
+    return False
+
+
+def _raw_cell(state: _ParseState, cell, first: str) -> None:
+    """Open or close a TESTS/SOLUTION/PROMPT region, or copy any other raw cell."""
+    for pattern, flag in _RAW_MARKERS:
+        if pattern.match(first):
+            if flag[0] == "t":
+                state.in_tests = flag[1] == "+"
+            elif flag[0] == "s":
+                state.in_solution = flag[1] == "+"
             else:
-                student_cells.append(copy.deepcopy(cell))
-            continue
-        if cell["cell_type"] == "markdown":
-            student_cells.append(copy.deepcopy(cell))
-            continue
-        # Code cells.
-        inline_tests = bool(_BEGIN_TESTS.match(first))
-        if in_tests or inline_tests:
-            if question is None:
-                raise AuthoringError(f"tests outside a question:\n{src}")
-            _add_test_cell(question, src, inline_tests)
-            continue
-        if in_prompt:
-            student_cells.append(copy.deepcopy(cell))
-            continue
-        if in_solution:
-            solution_cells.append(solution_source(src))
-            continue
-        solution_cells.append(solution_source(src))
-        student = copy.deepcopy(cell)
-        student["source"] = strip_solutions(src)
-        student["outputs"], student["execution_count"] = [], None
-        student_cells.append(student)
-    if question is not None:
-        raise AuthoringError(f"question {question.name} has no `# END QUESTION`")
-    if in_tests or in_solution or in_prompt:
+                state.in_prompt = flag[1] == "+"
+            return
+    state.student_cells.append(copy.deepcopy(cell))
+
+
+def _code_cell(state: _ParseState, cell, src: str, first: str) -> None:
+    """Route a code cell to the tests, the student notebook and/or the solution."""
+    inline_tests = bool(_BEGIN_TESTS.match(first))
+    if state.in_tests or inline_tests:
+        if state.question is None:
+            raise AuthoringError(f"tests outside a question:\n{src}")
+        _add_test_cell(state.question, src, inline_tests)
+        return
+    if state.in_prompt:
+        state.student_cells.append(copy.deepcopy(cell))
+        return
+    if state.in_solution:
+        state.solution_cells.append(solution_source(src))
+        return
+    state.solution_cells.append(solution_source(src))
+    student = copy.deepcopy(cell)
+    student["source"] = strip_solutions(src)
+    student["outputs"], student["execution_count"] = [], None
+    state.student_cells.append(student)
+
+
+def _check_closed(state: _ParseState) -> None:
+    """Raise `AuthoringError` for an unclosed region or a question without tests."""
+    if state.question is not None:
+        raise AuthoringError(f"question {state.question.name} has no `# END QUESTION`")
+    if state.in_tests or state.in_solution or state.in_prompt:
         raise AuthoringError("a `# BEGIN TESTS/SOLUTION/PROMPT` raw cell is never closed")
-    for q in questions:
+    for q in state.questions:
         if not q.tests:
             raise AuthoringError(f"question {q.name} has no tests")
-    student = _student_notebook(notebook, name, config, questions, student_cells)
-    return Assignment(name, questions, student, solution_cells, config)
+
+
+def parse_notebook(notebook) -> Assignment:
+    """Parse an instructor notebook (path or `NotebookNode`) into an `Assignment`."""
+    notebook, name = _load_named(notebook)
+    config = dict(notebook["metadata"].get("gfxlab", {}))
+    name = config.get("name", name)
+    state = _ParseState()
+    for cell in notebook["cells"]:
+        src = _cell_text(cell)
+        lines = src.splitlines()
+        first = next((ln for ln in lines if ln.strip()), "")
+        if _question_marker(state, cell, src, first):
+            continue
+        if cell["cell_type"] == "raw":
+            _raw_cell(state, cell, first)
+        elif cell["cell_type"] == "markdown":
+            state.student_cells.append(copy.deepcopy(cell))
+        else:
+            _code_cell(state, cell, src, first)
+    _check_closed(state)
+    student = _student_notebook(notebook, name, config, state.questions, state.student_cells)
+    return Assignment(name, state.questions, student, state.solution_cells, config)
 
 
 def _open_question(cell, src, questions, student_cells) -> Question:

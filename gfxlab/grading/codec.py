@@ -115,28 +115,43 @@ def decode(obj, _depth=0, _budget=None, *, deadline=None):
         raise WireError(f"malformed value of JSON type {kind.__name__}")
     if len(obj) == 1:
         ((tag, body),) = obj.items()
-        if tag == "f" and type(body) is str:
-            try:
-                return float(body)
-            except ValueError:
-                raise WireError("malformed float") from None
-        if tag == "t" and type(body) is list:
-            return tuple(decode(v, _depth + 1, budget) for v in body)
-        if tag == "d" and type(body) is list:
-            out = {}
-            for pair in body:
-                if type(pair) is not list or len(pair) != 2:
-                    raise WireError("malformed dict entry")
-                key = decode(pair[0], _depth + 1, budget)
-                if type(key) not in (str, int, float, bool, tuple) and key is not None:
-                    raise WireError("dict keys must be numbers, strings or tuples")
-                budget.key(key)
-                try:
-                    out[key] = decode(pair[1], _depth + 1, budget)
-                except TypeError:
-                    raise WireError("unhashable dict key") from None
-            return out
-        raise WireError(f"unknown tag {tag!r}")
+        return _decode_tagged(tag, body, _depth, budget)
+    return _decode_array(obj, budget)
+
+
+def _decode_tagged(tag, body, depth, budget):
+    """Decode a one-key `{tag: body}` value: a float, tuple or dict."""
+    if tag == "f" and type(body) is str:
+        try:
+            return float(body)
+        except ValueError:
+            raise WireError("malformed float") from None
+    if tag == "t" and type(body) is list:
+        return tuple(decode(v, depth + 1, budget) for v in body)
+    if tag == "d" and type(body) is list:
+        return _decode_dict(body, depth, budget)
+    raise WireError(f"unknown tag {tag!r}")
+
+
+def _decode_dict(body, depth, budget):
+    """Decode a dict's `[key, value]` pairs, checking keys and counting hashed ones."""
+    out = {}
+    for pair in body:
+        if type(pair) is not list or len(pair) != 2:
+            raise WireError("malformed dict entry")
+        key = decode(pair[0], depth + 1, budget)
+        if type(key) not in (str, int, float, bool, tuple) and key is not None:
+            raise WireError("dict keys must be numbers, strings or tuples")
+        budget.key(key)
+        try:
+            out[key] = decode(pair[1], depth + 1, budget)
+        except TypeError:
+            raise WireError("unhashable dict key") from None
+    return out
+
+
+def _decode_array(obj, budget):
+    """Decode a four-key array value, checking dtype, shape, size and data length."""
     if set(obj) != {"a", "s", "b", "g"}:
         raise WireError("malformed array")
     dtype, shape, data, scalar = obj["a"], obj["s"], obj["b"], obj["g"]

@@ -92,6 +92,8 @@ def write_autograder(assignment: authoring.Assignment, directory) -> pathlib.Pat
 
 @dataclasses.dataclass
 class AssignResult:
+    """What `assign` wrote, and how the reference and a blank notebook scored."""
+
     student_notebook: pathlib.Path
     autograder: pathlib.Path
     reference: GradeResult | None
@@ -438,6 +440,7 @@ def grade_many(submissions, autograder_dir, out_dir, *, jobs=None, limits=None):
 
 
 def protections_summary() -> str:
+    """This machine's sandbox protections, one line per layer."""
     return "\n".join(detect_protections().describe())
 
 

@@ -84,9 +84,11 @@ class StudentFunction:
         self._session, self.name, self.transforms = session, name, transforms
 
     def __call__(self, *args, **kwargs):
+        """Call the function in the student process (arguments and result are plain data)."""
         return self._session.call(self.name, self.transforms, args, kwargs)
 
     def transformed(self, op: str, **options) -> StudentFunction:
+        """This function with the transform `op` (e.g. `grad`) applied in the student process."""
         options = {k: tuple(v) if isinstance(v, list) else v for k, v in options.items()}
         return StudentFunction(self._session, self.name, (*self.transforms, (op, options)))
 
@@ -290,6 +292,8 @@ class StudentRaised(StudentCallError):
 
 @dataclasses.dataclass
 class TestResult:
+    """Outcome of one test: passed or not, its weight, and its failure message."""
+
     name: str
     hidden: bool
     passed: bool
@@ -299,12 +303,15 @@ class TestResult:
 
 @dataclasses.dataclass
 class QuestionResult:
+    """Outcomes of one question's tests and the points at stake."""
+
     name: str
     points: float
     tests: list[TestResult]
 
     @property
     def score(self) -> float:
+        """Points earned: `points` times the weighted fraction of tests passed."""
         total = sum(t.weight for t in self.tests)
         won = sum(t.weight for t in self.tests if t.passed)
         return self.points * won / total if total else 0.0
@@ -374,10 +381,12 @@ class GradeResult:
 
     @property
     def score(self) -> float:
+        """Total points earned."""
         return sum(q.score for q in self.questions)
 
     @property
     def max_score(self) -> float:
+        """Total points available."""
         return sum(q.points for q in self.questions)
 
     def to_gradescope(self) -> dict:
@@ -402,6 +411,7 @@ class GradeResult:
         }
 
     def table(self) -> str:
+        """Plain-text table of scores per question, with a total row."""
         rows = [("question", "score", "max", "tests passed")]
         for q in self.questions:
             passed = sum(t.passed for t in q.tests)
@@ -467,9 +477,11 @@ class Autograder:
 
     @property
     def name(self) -> str:
+        """The assignment's name."""
         return self.config["assignment"]
 
     def solution_cells(self) -> list[str]:
+        """The reference solution's code cells."""
         return json.loads((self.directory / "solution.json").read_text())
 
     def limits(self, overrides: dict | Limits | None = None) -> Limits:
@@ -480,6 +492,7 @@ class Autograder:
         return dataclasses.replace(Limits(), **values)
 
     def session(self, cells, limits=None, numbers=None) -> StudentSession:
+        """A `StudentSession` running `cells` under this assignment's limits and config."""
         return StudentSession(
             cells,
             self.limits(limits),

@@ -114,6 +114,8 @@ KINDS = ("none", "identity", "zero", "plus", "minus")
 
 @dataclasses.dataclass(frozen=True)
 class Mutant:
+    """A wrong variant (`kind`) of one reference function, for one question's tests."""
+
     question: str
     function: str
     kind: str
@@ -243,6 +245,8 @@ def _weak_tests(grader, session, question, mutants, fail_fast) -> list[str]:
 
 
 def grader_confinement():
+    """The sandbox protections, or `IsolationUnavailable` if student code cannot be confined."""
+
     from .sandbox import require_confinement
 
     return require_confinement()

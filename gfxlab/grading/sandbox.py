@@ -89,6 +89,7 @@ class Limits:
     max_restarts: int = 6
 
     def rlimits(self) -> dict[str, int]:
+        """The `resource` limits (name -> value) to set in each student process."""
         return {
             "RLIMIT_CPU": int(self.cpu_seconds),
             "RLIMIT_AS": int(self.memory_mb) * 2**20,
@@ -115,10 +116,12 @@ class Protections:
 
     @property
     def confined(self) -> bool:
+        """Whether student code can run confined here (no `problem`)."""
         return self.problem is None
 
     @property
     def limits_kind(self) -> str:
+        """How resource limits are enforced on this machine, in words."""
         if self.cgroup_parent:
             return "cgroup v2 (memory.max, pids.max, cpu.max) plus rlimits"
         return (
@@ -230,15 +233,15 @@ class SandboxError(Exception):
 
 
 class Timeout(SandboxError):
-    pass
+    """The student process did not answer in time."""
 
 
 class Crash(SandboxError):
-    pass
+    """The student process could not start, or died."""
 
 
 class ProtocolError(SandboxError):
-    pass
+    """The student process sent a reply that breaks the protocol."""
 
 
 class StudentError(SandboxError):
@@ -279,6 +282,7 @@ class Sandbox:
 
     @property
     def alive(self) -> bool:
+        """Whether the student process is running."""
         return self.proc is not None and self.proc.poll() is None
 
     def _rlimits(self) -> dict[str, int]:
