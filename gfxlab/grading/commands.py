@@ -189,15 +189,12 @@ def check(notebook, *, limits=None) -> GradeResult:
         raise authoring.AuthoringError(f"{path} is not a gfxlab assignment notebook")
     cells = authoring.student_code_cells(nb)
     tests = authoring.public_test_cells(nb)
-    grader = Autograder.__new__(Autograder)
-    grader.directory = path.parent
-    grader.config = {
-        "assignment": str(meta.get("assignment", path.stem)),
-        "preload": _module_names(meta.get("preload", ["numpy"]))[:10],
-        "forbid": _module_names(meta.get("forbid", []))[:50],
-        "questions": [],
-    }
-    grader.questions, grader._namespaces = [], {}
+    grader = Autograder.without_tests(
+        path.parent,
+        assignment=meta.get("assignment", path.stem),
+        preload=_module_names(meta.get("preload", ["numpy"]))[:10],
+        forbid=_module_names(meta.get("forbid", []))[:50],
+    )
     prot = require_confinement()
     numbers = authoring.student_code_cell_numbers(nb)
     session = grader.session(cells + [_CHECK_HELPER], limits, [*numbers, 0])

@@ -475,6 +475,22 @@ class Autograder:
             for q in self.questions
         }
 
+    @classmethod
+    def without_tests(cls, directory, *, assignment: str, preload, forbid) -> Autograder:
+        """An autograder with no tests, for running a notebook's own test cells
+        (`gfxlab check`): the same sandbox, preloads and forbidden modules as `grade`.
+        """
+        grader = cls.__new__(cls)
+        grader.directory = pathlib.Path(directory).resolve()
+        grader.config = {
+            "assignment": str(assignment),
+            "preload": list(preload),
+            "forbid": list(forbid),
+            "questions": [],
+        }
+        grader.questions, grader._namespaces = [], {}
+        return grader
+
     @property
     def name(self) -> str:
         """The assignment's name."""
