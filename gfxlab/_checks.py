@@ -221,6 +221,13 @@ def check_finite(x, name: str):
     return value_error_if(x, bad, f"`{name}` must be finite (no NaN or inf)")
 
 
+def common_finite(*arrays, names: Sequence[str]) -> list[jax.Array]:
+    """`common_float` that also rejects NaN and infinity, naming the argument."""
+    return [
+        check_finite(a, n) for a, n in zip(common_float(*arrays, names=names), names, strict=True)
+    ]
+
+
 def finite_float(x, name: str = "x") -> jax.Array:
     """`as_float(x, name)` that also rejects NaN and infinite values."""
     return check_finite(as_float(x, name), name)

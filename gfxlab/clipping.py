@@ -46,10 +46,9 @@ import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float, Int
 
 from ._checks import (
-    check_finite,
     check_rect,
     check_shape,
-    common_float,
+    common_finite,
     finite_float,
     static_int,
     value_error_if,
@@ -57,13 +56,6 @@ from ._checks import (
 
 #: The largest output buffer `sutherland_hodgman` accepts (`max_vertices`).
 MAX_VERTICES = 1_000_000
-
-
-def _finite(*arrays, names):
-    """Floats of one dtype, each checked finite (NaN/inf name the argument)."""
-    return [
-        check_finite(a, n) for a, n in zip(common_float(*arrays, names=names), names, strict=True)
-    ]
 
 
 __all__ = [
@@ -139,7 +131,7 @@ def outcode(points: Float[Array, "*batch 2"], window: Float[Array, "4"]) -> Int[
 
     **Returns:** int32 codes `(...)`; 0 inside or on the window's boundary.
     """
-    points, window = _finite(points, window, names=("points", "window"))
+    points, window = common_finite(points, window, names=("points", "window"))
     check_shape(points, "points", (..., 2))
     window = _window(window)
     return _codes(points[..., 0], points[..., 1], window).astype(jnp.int32)
@@ -220,7 +212,7 @@ def cohen_sutherland(
     `(...)` boolean: `False` for a rejected segment. A trivially accepted segment comes
     back unchanged. Differentiable in the segments and the window.
     """
-    segments, window = _finite(segments, window, names=("segments", "window"))
+    segments, window = common_finite(segments, window, names=("segments", "window"))
     segments = _check_segments(segments)
     return _cohen_sutherland(segments, _window(window))
 
@@ -247,7 +239,7 @@ def cohen_sutherland_steps(
     0; otherwise move the outside endpoint to the first edge (top, bottom, right,
     left) its code names, and repeat. Same arguments and results as `cohen_sutherland`.
     """
-    segments, window = _finite(segments, window, names=("segments", "window"))
+    segments, window = common_finite(segments, window, names=("segments", "window"))
     segments = _check_segments(segments)
     return _cohen_sutherland_steps(segments, _window(window))
 
@@ -291,7 +283,7 @@ def cohen_sutherland_trace(segment, window) -> list[dict]:
     (`"top"`, `"bottom"`, `"right"`, `"left"` or None), `"clipped_point"` (`"p0"`,
     `"p1"` or None) and `"new_point"` (a tuple, or None).
     """
-    segment, window = _finite(segment, window, names=("segment", "window"))
+    segment, window = common_finite(segment, window, names=("segment", "window"))
     check_shape(segment, "segment", (2, 2))
     w = _window(window)
     if isinstance(segment, jax.core.Tracer) or isinstance(w, jax.core.Tracer):
@@ -350,7 +342,7 @@ def liang_barsky(
 
     **Returns:** `(clipped, visible)` as `cohen_sutherland` (NaN where not visible).
     """
-    segments, window = _finite(segments, window, names=("segments", "window"))
+    segments, window = common_finite(segments, window, names=("segments", "window"))
     segments = _check_segments(segments)
     return _liang_barsky(segments, _window(window))
 
@@ -423,7 +415,7 @@ def sutherland_hodgman(
     in order (invalid rows are 0), and the `(M,)` mask. No valid vertex when the
     polygon misses the window.
     """
-    polygon, window = _finite(polygon, window, names=("polygon", "window"))
+    polygon, window = common_finite(polygon, window, names=("polygon", "window"))
     check_shape(polygon, "polygon", (None, 2))
     if polygon.shape[0] < 3:
         raise ValueError(

@@ -26,25 +26,16 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from ._checks import (
-    check_finite,
     check_last_dim,
     check_rect,
     check_shape,
-    common_float,
+    common_finite,
     finite_float,
     safe_divide,
     safe_norm,
     safe_normalize,
     value_error_if,
 )
-
-
-def _finite(*arrays, names):
-    """`common_float` that also rejects NaN and infinite values, naming the argument."""
-    return [
-        check_finite(a, n) for a, n in zip(common_float(*arrays, names=names), names, strict=True)
-    ]
-
 
 __all__ = [
     "translate",
@@ -149,7 +140,7 @@ def rotate_axis(axis: Float[Array, "*batch 3"], angle: Float[Array, "*batch"]) -
     - `axis`: `(..., 3)`, any non-zero length (it is normalised).
     - `angle`: radians, right-handed about `axis`.
     """
-    axis, angle = _finite(axis, angle, names=("axis", "angle"))
+    axis, angle = common_finite(axis, angle, names=("axis", "angle"))
     check_last_dim(axis, "axis", (3,), "a 3D direction")
     length = safe_norm(axis, keepdims=True)
     axis = value_error_if(axis, length == 0, "`axis` must be a non-zero 3-vector")
@@ -186,7 +177,7 @@ def scale(
     linear_part = factors[..., :, None] * jnp.eye(d, dtype=factors.dtype)
     if center is None:
         return _embed(linear_part)
-    factors, center = _finite(factors, center, names=("factors", "center"))
+    factors, center = common_finite(factors, center, names=("factors", "center"))
     if center.shape[-1:] != (d,):
         raise ValueError(f"`center` must have shape (..., {d}) like `factors`, got {center.shape}")
     return _embed(linear_part, center * (1 - factors))
@@ -266,7 +257,7 @@ def reflect(
     householder = jnp.eye(d, dtype=n.dtype) - 2 * n[..., :, None] * n[..., None, :]
     if point is None:
         return _embed(householder)
-    n, point = _finite(n, point, names=("normal", "point"))
+    n, point = common_finite(n, point, names=("normal", "point"))
     if point.shape[-1:] != (d,):
         raise ValueError(f"`point` must have shape (..., {d}) like `normal`, got {point.shape}")
     # p' = H (p - q) + q  =>  offset = q - H q = 2 n (n . q)
@@ -324,7 +315,7 @@ def apply(matrix: Matrix, points: Float[Array, "*batch N d"]) -> Float[Array, "*
 
     **Returns:** the transformed points, same shape as `points`.
     """
-    matrix, points = _finite(matrix, points, names=("matrix", "points"))
+    matrix, points = common_finite(matrix, points, names=("matrix", "points"))
     if matrix.ndim < 2 or matrix.shape[-1] != matrix.shape[-2]:
         raise ValueError(f"`matrix` must be square (..., n, n), got shape {matrix.shape}")
     d = matrix.shape[-1] - 1
@@ -355,7 +346,7 @@ def window_to_viewport(
     """
     window = check_rect(window, "window")
     viewport = check_rect(viewport, "viewport")
-    window, viewport = _finite(window, viewport, names=("window", "viewport"))
+    window, viewport = common_finite(window, viewport, names=("window", "viewport"))
     check_shape(viewport, "viewport", (4,))
     s = (viewport[2:] - viewport[:2]) / (window[2:] - window[:2])
     return _embed(jnp.diag(s), viewport[:2] - s * window[:2])

@@ -18,23 +18,14 @@ from jaxtyping import Array, Bool, Float
 
 from . import transforms as tf
 from ._checks import (
-    check_finite,
     check_last_dim,
     check_range,
-    common_float,
+    common_finite,
     finite_float,
     safe_norm,
     static_shape,
     value_error_if,
 )
-
-
-def _finite(*arrays, names):
-    """Floats of one dtype, each checked finite (NaN/inf name the argument)."""
-    return [
-        check_finite(a, n) for a, n in zip(common_float(*arrays, names=names), names, strict=True)
-    ]
-
 
 __all__ = [
     "look_at",
@@ -71,7 +62,7 @@ def look_at(
     - `eye`, `target`, `up`: 3-vectors; `target != eye` and `up` not parallel to the
       viewing direction.
     """
-    eye, target, up = _finite(eye, target, up, names=("eye", "target", "up"))
+    eye, target, up = common_finite(eye, target, up, names=("eye", "target", "up"))
     for name, v in (("eye", eye), ("target", target), ("up", up)):
         check_last_dim(v, name, (3,), "a 3D point or direction")
     forward = _unit(target - eye, "`target` equals `eye`: the viewing direction is undefined")
@@ -100,7 +91,7 @@ def orthographic(left, right, bottom, top, near, far) -> Float[Array, "4 4"]:
 
     All six finite, with `right > left`, `top > bottom`, `far > near`.
     """
-    left, right, bottom, top, near, far = _finite(
+    left, right, bottom, top, near, far = common_finite(
         left, right, bottom, top, near, far, names=("left", "right", "bottom", "top", "near", "far")
     )
     left = _check_range(left, right, "left", "right")
@@ -123,7 +114,9 @@ def frustum(left, right, bottom, top, near, far) -> Float[Array, "4 4"]:
 
     All six finite, `right > left`, `top > bottom` and `0 < near < far`.
     """
-    left, right, bottom, top, near, far = _finite(left, right, bottom, top, near, far, names=_SIDES)
+    left, right, bottom, top, near, far = common_finite(
+        left, right, bottom, top, near, far, names=_SIDES
+    )
     near = value_error_if(near, near <= 0, "`near` must be positive for a perspective projection")
     near = _check_range(near, far, "near", "far")
     left = _check_range(left, right, "left", "right")
@@ -140,7 +133,7 @@ def frustum(left, right, bottom, top, near, far) -> Float[Array, "4 4"]:
 
 def _lens(fov_y, aspect, near, far):
     """The four lens parameters, finite and in range (each error names its argument)."""
-    fov_y, aspect, near, far = _finite(
+    fov_y, aspect, near, far = common_finite(
         fov_y, aspect, near, far, names=("fov_y", "aspect", "near", "far")
     )
     fov_y = check_range(
@@ -353,7 +346,7 @@ class Camera(eqx.Module):
 
 def _checked_pose(eye, target, up):
     """`eye`, `target`, `up` as finite 3-vectors with a well-defined camera frame."""
-    eye, target, up = _finite(eye, target, up, names=("eye", "target", "up"))
+    eye, target, up = common_finite(eye, target, up, names=("eye", "target", "up"))
     for name, v in (("target", target), ("up", up)):
         check_last_dim(v, name, (3,), "a 3-vector")
     forward = target - eye

@@ -11,9 +11,8 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from .._checks import (
-    check_finite,
     check_last_dim,
-    common_float,
+    common_finite,
     finite_float,
     safe_norm,
     safe_normalize,
@@ -40,12 +39,6 @@ __all__ = [
 Quat = Float[Array, "*batch 4"]
 
 
-def _finite(*arrays, names):
-    """Float arrays promoted to one dtype, each checked for None, NaN and infinity."""
-    arrays = common_float(*arrays, names=names)
-    return [check_finite(a, n) for a, n in zip(arrays, names, strict=True)]
-
-
 def _quats(q, name: str = "q"):
     q = finite_float(q, name)
     check_last_dim(q, name, (4,), "quaternions (w, x, y, z)")
@@ -67,7 +60,7 @@ def quat_from_axis_angle(axis: Float[Array, "*batch 3"], angle: Float[Array, "*b
 
     **Returns:** `(..., 4)` unit quaternions `(w, x, y, z)`.
     """
-    axis, angle = _finite(axis, angle, names=("axis", "angle"))
+    axis, angle = common_finite(axis, angle, names=("axis", "angle"))
     check_last_dim(axis, "axis", (3,), "a 3D rotation axis")
     axis = value_error_if(
         axis, safe_norm(axis) == 0, "`axis` must be a non-zero 3-vector (a rotation axis)"
@@ -91,7 +84,7 @@ def quat_from_rotvec(rotvec: Float[Array, "*batch 3"]) -> Quat:
 
 def quat_multiply(q: Quat, r: Quat) -> Quat:
     """The Hamilton product `q r` (rotate by `r` first, then by `q`)."""
-    q, r = _finite(q, r, names=("q", "r"))
+    q, r = common_finite(q, r, names=("q", "r"))
     check_last_dim(q, "q", (4,), "quaternions (w, x, y, z)")
     check_last_dim(r, "r", (4,), "quaternions (w, x, y, z)")
     w1, x1, y1, z1 = jnp.moveaxis(q, -1, 0)
@@ -131,7 +124,7 @@ def quat_to_matrix(q: Quat) -> Float[Array, "*batch 3 3"]:
 
 def quat_rotate(q: Quat, points: Float[Array, "*batch N 3"]) -> Float[Array, "*batch N 3"]:
     """Rotate 3D `points` by unit quaternions `q` (`q` broadcasts over the point axis)."""
-    q, points = _finite(q, points, names=("q", "points"))
+    q, points = common_finite(q, points, names=("q", "points"))
     check_last_dim(points, "points", (3,), "3D points")
     return jnp.einsum("...ij,...nj->...ni", quat_to_matrix(q), points)
 
@@ -189,7 +182,7 @@ def slerp(q0: Quat, q1: Quat, u: Float[Array, "*batch"], *, shortest: bool = Tru
 
     **Returns:** `(..., 4)` unit quaternions.
     """
-    q0, q1, u = _finite(q0, q1, u, names=("q0", "q1", "u"))
+    q0, q1, u = common_finite(q0, q1, u, names=("q0", "q1", "u"))
     check_last_dim(q0, "q0", (4,), "quaternions (w, x, y, z)")
     check_last_dim(q1, "q1", (4,), "quaternions (w, x, y, z)")
     if not isinstance(shortest, bool):
