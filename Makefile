@@ -65,7 +65,7 @@ format: $(VENV)/.installed-dev
 docs: $(VENV)/.installed-dev
 	@if ! ls $(LABS_OUT)/*.ipynb >/dev/null 2>&1; then \
 		MPLBACKEND=Agg $(BIN)/python -m gfxlab run all --out $(LABS_OUT); fi
-	MPLBACKEND=Agg $(BIN)/python -m mkdocs build --strict --quiet --site-dir build/site
+	NO_MKDOCS_2_WARNING=1 MPLBACKEND=Agg $(BIN)/python -m mkdocs build --strict --quiet --site-dir build/site
 
 clean:
 	rm -rf $(VENV) build site *.egg-info .pytest_cache
