@@ -330,18 +330,14 @@ class Sandbox:
             "--new-session",
             "--clearenv",
             *_system_binds(),
+            "--proc",
+            "/proc",
+            "--dev",
+            "/dev",
         ]
-        for path in _runtime_paths():
-            args += ["--ro-bind", str(path), str(path)]
-        python = _python()
-        if os.path.realpath(os.path.dirname(python)) != os.path.dirname(python):
-            args += ["--ro-bind", os.path.dirname(python), os.path.dirname(python)]
-        if not _package_inside():
-            args += ["--ro-bind", str(_PACKAGE), f"{_PACKAGE_TARGET}/gfxlab"]
-        args += self._forbid_args()
-        if getattr(self, "_seccomp_fd", None) is not None:
-            args += ["--seccomp", str(self._seccomp_fd)]
-        args += ["--proc", "/proc", "--dev", "/dev"]
+        # The private scratch /tmp and /dev/shm come before the runtime binds: a Python
+        # installation or venv that lives under /tmp (a CI checkout, a temporary
+        # environment) is then bound on top of the scratch tmpfs instead of hidden by it.
         if self.uid is not None:  # the launcher mounts them, bounded in size and inodes
             args += [
                 "--bind",
@@ -353,6 +349,16 @@ class Sandbox:
             ]
         else:  # bwrap's tmpfs: bounded in size (inodes only by a cgroup, if any)
             args += ["--size", tmp, "--tmpfs", "/dev/shm", "--size", tmp, "--tmpfs", "/tmp"]
+        for path in _runtime_paths():
+            args += ["--ro-bind", str(path), str(path)]
+        python = _python()
+        if os.path.realpath(os.path.dirname(python)) != os.path.dirname(python):
+            args += ["--ro-bind", os.path.dirname(python), os.path.dirname(python)]
+        if not _package_inside():
+            args += ["--ro-bind", str(_PACKAGE), f"{_PACKAGE_TARGET}/gfxlab"]
+        args += self._forbid_args()
+        if getattr(self, "_seccomp_fd", None) is not None:
+            args += ["--seccomp", str(self._seccomp_fd)]
         args += [
             "--remount-ro",
             "/dev",
