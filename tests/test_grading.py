@@ -7,11 +7,14 @@ group and uses small limits.
 
 import csv
 import json
+import os
 import pathlib
+import sys
 
 import numpy as np
 import pytest
 
+import gfxlab
 from gfxlab.grading import (
     AuthoringError,
     Autograder,
@@ -387,23 +390,13 @@ def test_sandbox_allow_list(tmp_path):
     assert out["network"] is False and out["isolated"] == 1
     assert out["uid"] == 1000 and "PYTHONPATH" not in out["env"] and "HOME" in out["env"]
     assert len(out["pids"]) <= 3  # bwrap's init, the worker: nothing of the host
-    assert set(out["root"]) <= {
-        "bin",
-        "dev",
-        "etc",
-        "lib",
-        "lib32",
-        "lib64",
-        "libx32",
-        "opt",
-        "proc",
-        "root",
-        "sbin",
-        "tmp",
-        "usr",
-        "work",
-        "home",
-    }
+    # The runtime's own top-level folders (a venv under /work, /check, /home...) are bound
+    # read-only; anything else at the root would be a leak of the host.
+    runtime = {sys.prefix, sys.base_prefix, os.path.realpath(sys.base_prefix)}
+    runtime |= {str(pathlib.Path(gfxlab.__file__).resolve().parent)}
+    runtime_tops = {pathlib.Path(p).parts[1] for p in runtime if len(pathlib.Path(p).parts) > 1}
+    system = {"bin", "dev", "etc", "lib", "lib32", "lib64", "libx32", "opt", "proc", "root"}
+    assert set(out["root"]) <= system | {"sbin", "tmp", "usr"} | runtime_tops
     assert out["writable"] == ["/tmp"]
     assert "not allowed" in out["jpeg"]
     assert not (pathlib.Path("/tmp") / "gfxlab-probe").exists()
