@@ -28,6 +28,7 @@ Summary (counts per module), from the repository root:
     python tests/test_contract.py            # print the table (every case)
     python tests/test_contract.py --quick    # the quick subset that pytest runs
     python tests/test_contract.py --known    # print the allow-list for the current tree
+    python tests/test_contract.py --quick --modules mesh,color --details  # one module's gaps
 
 Under pytest the sweep runs the quick subset of cases (`QUICK_CASES`: None, NaN, a wrong
 shape, a huge size, an unknown choice for every parameter of every function);
@@ -428,7 +429,7 @@ def _limit_memory():
 
 
 def run_sweep_subprocess(
-    timeout: float = 900, restarts: int = 30, quick: bool = False
+    timeout: float = 900, restarts: int = 30, quick: bool = False, modules=MODULES
 ) -> list[dict]:
     """The sweep in a fresh interpreter with capped memory; its records.
 
@@ -444,7 +445,7 @@ def run_sweep_subprocess(
         for _ in range(restarts):
             code = (
                 f"import sys; sys.path.insert(0, {str(HERE)!r}); import test_contract as t; "
-                f"t.sweep({path!r}, {start}, quick={quick})"
+                f"t.sweep({path!r}, {start}, modules={tuple(modules)!r}, quick={quick})"
             )
             run = subprocess.run(
                 [sys.executable, "-c", code], capture_output=True, text=True, timeout=timeout,
@@ -499,11 +500,24 @@ def test_owned_modules_have_no_known_failures():
     assert not [k for k in known_failures() if k.startswith(owned)]
 
 
-if __name__ == "__main__":
-    found = run_sweep_subprocess(quick="--quick" in sys.argv)
-    if "--known" in sys.argv:
+def _main(argv) -> None:
+    """`--quick`, `--known`, `--modules a,b` (a subset), `--details` (each failure's outcome)."""
+    modules = MODULES
+    if "--modules" in argv:
+        modules = tuple(argv[argv.index("--modules") + 1].split(","))
+    found = run_sweep_subprocess(quick="--quick" in argv, modules=modules)
+    if "--known" in argv:
         print(KNOWN_HEADER + "\n".join(sorted(failures(found))))
-    else:
-        print(summary(found))
-        new = failures(found) - known_failures()
-        print(f"\n{len(failures(found))} failing cases, {len(new)} not in {KNOWN_FILE.name}")
+        return
+    print(summary(found))
+    if "--details" in argv:
+        for r in found:
+            if not _passes(r):
+                key = f"{r['module']}.{r['function']} {r['param']} {r['case']}"
+                print(f"{key}  ->  {r['outcome']}: {r['detail']}")
+    new = failures(found) - known_failures()
+    print(f"\n{len(failures(found))} failing cases, {len(new)} not in {KNOWN_FILE.name}")
+
+
+if __name__ == "__main__":
+    _main(sys.argv)
