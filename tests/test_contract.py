@@ -107,6 +107,18 @@ BASELINES = {
 }
 for _name in ("cohen_sutherland", "cohen_sutherland_steps", "liang_barsky"):
     BASELINES[f"clipping.{_name}"] = {"segments": [[[-1.0, 0.5], [2.0, 0.5]]]}
+# Baselines of the other modules: each module's entries go in its own block below.
+# -- animation, mesh
+BASELINES |= {}
+# -- render
+BASELINES |= {}
+# -- curves
+BASELINES |= {}
+# -- brdf, color
+BASELINES |= {}
+# -- image, jpeg, raster
+BASELINES |= {}
+# -- end of module blocks
 NAMED = {  # guesses by parameter name
     "shape": (8, 8), "window": [0.0, 0.0, 1.0, 1.0], "viewport": [0.0, 0.0, 4.0, 4.0],
     "key": "<key>", "u": [0.25, 0.5], "t": [0.25, 0.5], "quality": 50, "sigma": 1.0,
