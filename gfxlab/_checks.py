@@ -78,6 +78,8 @@ def as_float(x, name: str = "x") -> jax.Array:
     under `jax_enable_x64`). `None`, strings and other non-numbers raise `TypeError`
     naming the argument; ragged nested lists raise `ValueError`.
     """
+    if isinstance(x, jax.Array) and _is_floating(x.dtype):
+        return x  # the common case, without a dispatch
     if x is None:
         raise TypeError(f"`{name}` must be an array of numbers, got None")
     if isinstance(x, str | bytes):
@@ -106,7 +108,7 @@ def common_float(*arrays, names: Sequence[str]) -> list[jax.Array]:
     """Several arrays as floats promoted to one common dtype."""
     arrays = [as_float(a, n) for a, n in zip(arrays, names, strict=True)]
     dtype = jnp.result_type(*arrays)
-    return [a.astype(dtype) for a in arrays]
+    return [a if a.dtype == dtype else a.astype(dtype) for a in arrays]
 
 
 def check_last_dim(x: jax.Array, name: str, sizes: Sequence[int], what: str = "") -> int:
@@ -214,8 +216,42 @@ def value_error_if(x, bad, message: str):
     return eqx.error_if(x, bad, message)
 
 
+def host_value(x) -> np.ndarray | None:
+    """`x` as a NumPy array when its value is known and already in host memory (a NumPy
+    array, a Python number, a concrete JAX array on the CPU), else `None`.
+
+    Eager checks test such values with NumPy: one JAX dispatch per check costs tens of
+    microseconds, NumPy a few, and a traced or accelerator-resident value keeps the JAX
+    path (no device-to-host copy).
+    """
+    if isinstance(x, np.ndarray | np.generic | int | float | bool):
+        return np.asarray(x)
+    if isinstance(x, jax.Array) and not isinstance(x, jax.core.Tracer) and _host_backend():
+        try:
+            return np.asarray(x)
+        except (RuntimeError, ValueError):  # deleted or donated buffers
+            return None
+    return None
+
+
+@functools.cache
+def _host_backend() -> bool:
+    """True when JAX computes on the CPU, so every concrete array is in host memory."""
+    return jax.default_backend() == "cpu"
+
+
+@functools.cache
+def _is_floating(dtype) -> bool:
+    return bool(jnp.issubdtype(dtype, jnp.floating))
+
+
 def check_finite(x, name: str):
     """`x` unchanged, after checking that it holds no NaN or infinity (eagerly and under jit)."""
+    host = host_value(x)
+    if host is not None:
+        if _is_floating(host.dtype) and not np.isfinite(host).all():
+            raise ValueError(f"`{name}` must be finite (no NaN or inf)")
+        return x
     with jax.ensure_compile_time_eval():  # a constant is checked at trace time
         bad = ~jnp.isfinite(x)
     return value_error_if(x, bad, f"`{name}` must be finite (no NaN or inf)")
@@ -259,12 +295,15 @@ def check_range(
     """
     if minimum is None and maximum is None:
         raise TypeError("check_range needs `minimum` or `maximum`")
-    with jax.ensure_compile_time_eval():  # a constant is checked at trace time
-        ok = ~jnp.isnan(x)
+    host = host_value(x)
+    # NumPy for a value in host memory, else JAX (a constant is checked at trace time).
+    xp, value = (np, host) if host is not None else (jnp, x)
+    with jax.ensure_compile_time_eval():
+        ok = ~xp.isnan(value)
         if minimum is not None:
-            ok = ok & ((x > minimum) if lower_open else (x >= minimum))
+            ok = ok & ((value > minimum) if lower_open else (value >= minimum))
         if maximum is not None:
-            ok = ok & ((x < maximum) if upper_open else (x <= maximum))
+            ok = ok & ((value < maximum) if upper_open else (value <= maximum))
     hint = f" ({what})" if what else ""
     text = _bound_text(minimum, maximum, lower_open, upper_open)
     return value_error_if(x, ~ok, f"`{name}` must be {text}{hint}")
@@ -280,8 +319,10 @@ def check_rect(rect, name: str) -> jax.Array:
     """A finite rectangle `(xmin, ymin, xmax, ymax)` with positive width and height."""
     rect = finite_float(rect, name)
     check_shape(rect, name, (4,))
+    host = host_value(rect)
+    values = host if host is not None else rect
     with jax.ensure_compile_time_eval():
-        bad = (rect[2] <= rect[0]) | (rect[3] <= rect[1])
+        bad = (values[2] <= values[0]) | (values[3] <= values[1])
     return value_error_if(
         rect,
         bad,

@@ -21,6 +21,8 @@ Example:
 
 from __future__ import annotations
 
+import functools
+
 import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
@@ -29,6 +31,7 @@ from ._checks import (
     check_last_dim,
     check_rect,
     check_shape,
+    checked_jit,
     common_finite,
     finite_float,
     safe_divide,
@@ -91,8 +94,15 @@ def translate(offset: Float[Array, "*batch d"]) -> Matrix:
     **Returns:** the homogeneous matrix `(..., d+1, d+1)`.
     """
     offset = finite_float(offset, "offset")
-    d = check_last_dim(offset, "offset", (2, 3), "a 2D or 3D offset")
-    return _embed(jnp.eye(d, dtype=offset.dtype), offset)
+    check_last_dim(offset, "offset", (2, 3), "a 2D or 3D offset")
+    return _translate(offset)
+
+
+# Each public function checks its arguments in Python and runs its array work as one
+# compiled call (`checked_jit`: a failed value check is the same ValueError as eagerly).
+@checked_jit
+def _translate(offset):
+    return _embed(jnp.eye(offset.shape[-1], dtype=offset.dtype), offset)
 
 
 def _rotation_2d(angle: jax.Array) -> jax.Array:
@@ -102,13 +112,21 @@ def _rotation_2d(angle: jax.Array) -> jax.Array:
 
 def rotate(angle: Float[Array, "*batch"]) -> Matrix:
     """2D rotation about the origin, counter-clockwise by `angle` radians (3x3)."""
-    angle = finite_float(angle, "angle")
+    return _rotate(finite_float(angle, "angle"))
+
+
+@checked_jit
+def _rotate(angle):
     return _embed(_rotation_2d(angle))
 
 
 def _rotation_about(axis_index: int, angle: jax.Array) -> jax.Array:
+    return _rotation_about_core(finite_float(angle, "angle"), axis_index)
+
+
+@functools.partial(checked_jit, static_argnums=1)
+def _rotation_about_core(angle: jax.Array, axis_index: int) -> jax.Array:
     # Rotation in the plane of the two other axes, right-handed about `axis_index`.
-    angle = finite_float(angle, "angle")
     i, j = [(1, 2), (2, 0), (0, 1)][axis_index]
     c, s = jnp.cos(angle), jnp.sin(angle)
     m = jnp.broadcast_to(jnp.eye(3, dtype=angle.dtype), angle.shape + (3, 3))
@@ -142,6 +160,11 @@ def rotate_axis(axis: Float[Array, "*batch 3"], angle: Float[Array, "*batch"]) -
     """
     axis, angle = common_finite(axis, angle, names=("axis", "angle"))
     check_last_dim(axis, "axis", (3,), "a 3D direction")
+    return _rotate_axis(axis, angle)
+
+
+@checked_jit
+def _rotate_axis(axis, angle):
     length = safe_norm(axis, keepdims=True)
     axis = value_error_if(axis, length == 0, "`axis` must be a non-zero 3-vector")
     k = axis / jnp.where(length == 0, 1.0, length)
@@ -174,13 +197,19 @@ def scale(
     """
     factors = finite_float(factors, "factors")
     d = check_last_dim(factors, "factors", (2, 3), "one scale factor per axis")
-    linear_part = factors[..., :, None] * jnp.eye(d, dtype=factors.dtype)
-    if center is None:
-        return _embed(linear_part)
-    factors, center = common_finite(factors, center, names=("factors", "center"))
-    if center.shape[-1:] != (d,):
-        raise ValueError(f"`center` must have shape (..., {d}) like `factors`, got {center.shape}")
-    return _embed(linear_part, center * (1 - factors))
+    if center is not None:
+        factors, center = common_finite(factors, center, names=("factors", "center"))
+        if center.shape[-1:] != (d,):
+            raise ValueError(
+                f"`center` must have shape (..., {d}) like `factors`, got {center.shape}"
+            )
+    return _scale(factors, center)
+
+
+@checked_jit
+def _scale(factors, center):
+    linear_part = factors[..., :, None] * jnp.eye(factors.shape[-1], dtype=factors.dtype)
+    return _embed(linear_part, None if center is None else center * (1 - factors))
 
 
 _SHEAR_3D = ("xz", "yz", "zx", "zy")
@@ -209,6 +238,11 @@ def shear(
     values = {  # None means "absent" only for the 3D factors
         k: finite_float(0.0 if v is None and k in _SHEAR_3D else v, k) for k, v in named.items()
     }
+    return _shear(values, three_d)
+
+
+@functools.partial(checked_jit, static_argnums=1)
+def _shear(values: dict, three_d: bool):
     dtype = jnp.result_type(*values.values())
     batch = jnp.broadcast_shapes(*(v.shape for v in values.values()))
     d = 3 if three_d else 2
@@ -232,7 +266,10 @@ def linear(matrix: Float[Array, "*batch d d"]) -> Matrix:
     matrix = finite_float(matrix, "matrix")
     if matrix.ndim < 2 or matrix.shape[-1] != matrix.shape[-2] or matrix.shape[-1] not in (2, 3):
         raise ValueError(f"`matrix` must have shape (..., 2, 2) or (..., 3, 3), got {matrix.shape}")
-    return _embed(matrix)
+    return _linear(matrix)
+
+
+_linear = checked_jit(lambda matrix: _embed(matrix))
 
 
 def reflect(
@@ -251,15 +288,21 @@ def reflect(
     """
     normal = finite_float(normal, "normal")
     d = check_last_dim(normal, "normal", (2, 3), "a 2D or 3D normal")
+    if point is not None:
+        normal, point = common_finite(normal, point, names=("normal", "point"))
+        if point.shape[-1:] != (d,):
+            raise ValueError(f"`point` must have shape (..., {d}) like `normal`, got {point.shape}")
+    return _reflect(normal, point)
+
+
+@checked_jit
+def _reflect(normal, point):
     length = safe_norm(normal, keepdims=True)
     normal = value_error_if(normal, length == 0, "`normal` must be a non-zero vector")
     n = normal / jnp.where(length == 0, 1.0, length)
-    householder = jnp.eye(d, dtype=n.dtype) - 2 * n[..., :, None] * n[..., None, :]
+    householder = jnp.eye(n.shape[-1], dtype=n.dtype) - 2 * n[..., :, None] * n[..., None, :]
     if point is None:
         return _embed(householder)
-    n, point = common_finite(n, point, names=("normal", "point"))
-    if point.shape[-1:] != (d,):
-        raise ValueError(f"`point` must have shape (..., {d}) like `normal`, got {point.shape}")
     # p' = H (p - q) + q  =>  offset = q - H q = 2 n (n . q)
     offset = 2 * n * jnp.sum(n * point, axis=-1, keepdims=True)
     return _embed(householder, offset)
@@ -283,6 +326,11 @@ def compose(*matrices: Matrix) -> Matrix:
                 f"cannot compose a {size[0]}x{size[1]} matrix with a "
                 f"{m.shape[-2]}x{m.shape[-1]} one (`matrices[{i}]`): mix of 2D and 3D transforms"
             )
+    return _compose(mats)
+
+
+@checked_jit
+def _compose(mats):
     out = mats[0]
     for m in mats[1:]:
         out = m @ out
@@ -291,7 +339,11 @@ def compose(*matrices: Matrix) -> Matrix:
 
 def to_homogeneous(points: Float[Array, "*batch N d"]) -> Float[Array, "*batch N d+1"]:
     """Append a homogeneous coordinate `w = 1`."""
-    points = finite_float(points, "points")
+    return _to_homogeneous(finite_float(points, "points"))
+
+
+@checked_jit
+def _to_homogeneous(points):
     return jnp.concatenate([points, jnp.ones_like(points[..., :1])], axis=-1)
 
 
@@ -301,7 +353,11 @@ def from_homogeneous(points: Float[Array, "*batch N d+1"]) -> Float[Array, "*bat
     A point with `w = 0` lies at infinity; it comes back large but finite, with
     finite gradients, rather than as inf or NaN.
     """
-    points = finite_float(points, "points")
+    return _from_homogeneous(finite_float(points, "points"))
+
+
+@checked_jit
+def _from_homogeneous(points):
     return safe_divide(points[..., :-1], points[..., -1:])
 
 
@@ -320,10 +376,15 @@ def apply(matrix: Matrix, points: Float[Array, "*batch N d"]) -> Float[Array, "*
         raise ValueError(f"`matrix` must be square (..., n, n), got shape {matrix.shape}")
     d = matrix.shape[-1] - 1
     check_last_dim(points, "points", (d,), f"{d}D points for a {d + 1}x{d + 1} matrix")
+    return _apply(matrix, points)
+
+
+@checked_jit
+def _apply(matrix, points):
     single = points.ndim == 1
     pts = points[None] if single else points
-    moved = jnp.einsum("...ij,...nj->...ni", matrix, to_homogeneous(pts))
-    out = from_homogeneous(moved)
+    moved = jnp.einsum("...ij,...nj->...ni", matrix, _to_homogeneous(pts))
+    out = _from_homogeneous(moved)
     return out[..., 0, :] if single else out
 
 
@@ -348,6 +409,11 @@ def window_to_viewport(
     viewport = check_rect(viewport, "viewport")
     window, viewport = common_finite(window, viewport, names=("window", "viewport"))
     check_shape(viewport, "viewport", (4,))
+    return _window_to_viewport(window, viewport)
+
+
+@checked_jit
+def _window_to_viewport(window, viewport):
     s = (viewport[2:] - viewport[:2]) / (window[2:] - window[:2])
     return _embed(jnp.diag(s), viewport[:2] - s * window[:2])
 
@@ -373,6 +439,11 @@ def _skew(v: jax.Array) -> jax.Array:
 def _from_axis_angle(rotvec, _name: str) -> jax.Array:
     rotvec = finite_float(rotvec, _name)
     check_last_dim(rotvec, _name, (3,), "a rotation vector angle * axis")
+    return _axis_angle_matrix(rotvec)
+
+
+@checked_jit
+def _axis_angle_matrix(rotvec):
     t2 = jnp.sum(rotvec * rotvec, axis=-1)[..., None, None]
     small = t2 < _SMALL_ANGLE_SQ
     t = jnp.sqrt(jnp.where(small, 1.0, t2))
@@ -401,6 +472,11 @@ def rotation_from_axis_angle(rotvec: Float[Array, "*batch 3"]) -> Float[Array, "
 def _from_quaternion(q, _name: str) -> jax.Array:
     q = finite_float(q, _name)
     check_last_dim(q, _name, (4,), "a quaternion (w, x, y, z)")
+    return _quaternion_matrix(q, _name)
+
+
+@functools.partial(checked_jit, static_argnums=1)
+def _quaternion_matrix(q, _name: str):
     n2 = jnp.sum(q * q, axis=-1)
     q = value_error_if(q, n2 == 0, f"`{_name}` must be a non-zero quaternion")
     s = 2 / jnp.where(n2 == 0, 1.0, n2)
@@ -430,6 +506,11 @@ def rotation_from_quaternion(q: Float[Array, "*batch 4"]) -> Float[Array, "*batc
 def _from_6d(r6, _name: str) -> jax.Array:
     r6 = finite_float(r6, _name)
     check_last_dim(r6, _name, (6,), "two 3-vectors (a1, a2)")
+    return _6d_matrix(r6, _name)
+
+
+@functools.partial(checked_jit, static_argnums=1)
+def _6d_matrix(r6, _name: str):
     a1, a2 = r6[..., :3], r6[..., 3:]
     b1 = safe_normalize(a1)
     rest = a2 - jnp.sum(b1 * a2, axis=-1, keepdims=True) * b1
@@ -463,6 +544,11 @@ def rotation_from_6d(r6: Float[Array, "*batch 6"]) -> Float[Array, "*batch 3 3"]
 def _check_rotation(matrix: jax.Array, name: str) -> jax.Array:
     matrix = finite_float(matrix, name)
     check_shape(matrix, name, (..., 3, 3))
+    return _rotation_checked(matrix, name)
+
+
+@functools.partial(checked_jit, static_argnums=1)
+def _rotation_checked(matrix, name: str):
     gram = jnp.swapaxes(matrix, -1, -2) @ matrix
     tol = 1e-5 if matrix.dtype == jnp.float64 else 1e-3
     bad = (jnp.max(jnp.abs(gram - jnp.eye(3)), axis=(-2, -1)) > tol) | (jnp.linalg.det(matrix) <= 0)
@@ -472,7 +558,11 @@ def _check_rotation(matrix: jax.Array, name: str) -> jax.Array:
 def rotation_to_quaternion(matrix: Float[Array, "*batch 3 3"]) -> Float[Array, "*batch 4"]:
     """The unit quaternion `(w, x, y, z)` with `w >= 0` of a 3x3 rotation matrix
     (Shepperd's method: the best-conditioned of four formulas, chosen per matrix)."""
-    r = _check_rotation(matrix, "matrix")
+    return _quaternion_of(_check_rotation(matrix, "matrix"))
+
+
+@checked_jit
+def _quaternion_of(r):
     d0, d1, d2 = r[..., 0, 0], r[..., 1, 1], r[..., 2, 2]
     t = jnp.stack([1 + d0 + d1 + d2, 1 + d0 - d1 - d2, 1 - d0 + d1 - d2, 1 - d0 - d1 + d2], -1)
     half = 0.5 * jnp.sqrt(jnp.maximum(t, 1e-6))  # the chosen one has t >= 1
@@ -498,7 +588,12 @@ def rotation_to_quaternion(matrix: Float[Array, "*batch 3 3"]) -> Float[Array, "
 def rotation_to_axis_angle(matrix: Float[Array, "*batch 3 3"]) -> Float[Array, "*batch 3"]:
     """The rotation vector `angle * unit_axis` (angle in [0, pi]) of a rotation matrix;
     the inverse of `rotation_from_axis_angle`, with finite gradients at the identity."""
-    q = rotation_to_quaternion(matrix)
+    return _axis_angle_of(_check_rotation(matrix, "matrix"))
+
+
+@checked_jit
+def _axis_angle_of(r):
+    q = _quaternion_of(r)
     w, v = q[..., :1], q[..., 1:]
     n2 = jnp.sum(v * v, axis=-1, keepdims=True)
     small = n2 < _SMALL_ANGLE_SQ
@@ -512,8 +607,10 @@ def rotation_to_axis_angle(matrix: Float[Array, "*batch 3 3"]) -> Float[Array, "
 
 def rotation_to_6d(matrix: Float[Array, "*batch 3 3"]) -> Float[Array, "*batch 6"]:
     """The 6D representation of a rotation matrix: its first two columns `(a1, a2)`."""
-    r = _check_rotation(matrix, "matrix")
-    return jnp.concatenate([r[..., :, 0], r[..., :, 1]], axis=-1)
+    return _6d_of(_check_rotation(matrix, "matrix"))
+
+
+_6d_of = checked_jit(lambda r: jnp.concatenate([r[..., :, 0], r[..., :, 1]], axis=-1))
 
 
 def rotation_matrix(
@@ -542,4 +639,4 @@ def rotation(
     values: Float[Array, "*batch k"], *, representation: str = "axis_angle"
 ) -> Float[Array, "*batch 4 4"]:
     """The homogeneous 4x4 rotation of `rotation_matrix(values, representation)`."""
-    return _embed(rotation_matrix(values, representation))
+    return _linear(rotation_matrix(values, representation))

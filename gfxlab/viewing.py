@@ -11,6 +11,8 @@ row H-1-y at integer (x, y)); `ndc_to_pixels` maps NDC x, y onto them.
 
 from __future__ import annotations
 
+import functools
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -20,6 +22,7 @@ from . import transforms as tf
 from ._checks import (
     check_last_dim,
     check_range,
+    checked_jit,
     common_finite,
     finite_float,
     safe_norm,
@@ -65,6 +68,13 @@ def look_at(
     eye, target, up = common_finite(eye, target, up, names=("eye", "target", "up"))
     for name, v in (("eye", eye), ("target", target), ("up", up)):
         check_last_dim(v, name, (3,), "a 3D point or direction")
+    return _look_at(eye, target, up)
+
+
+# Each public function checks its arguments in Python and runs its array work (value
+# checks included) as one compiled call; `checked_jit` raises a failed check's ValueError.
+@checked_jit
+def _look_at(eye, target, up):
     forward = _unit(target - eye, "`target` equals `eye`: the viewing direction is undefined")
     up_length = safe_norm(up, keepdims=True)
     right = _unit(
@@ -91,9 +101,11 @@ def orthographic(left, right, bottom, top, near, far) -> Float[Array, "4 4"]:
 
     All six finite, with `right > left`, `top > bottom`, `far > near`.
     """
-    left, right, bottom, top, near, far = common_finite(
-        left, right, bottom, top, near, far, names=("left", "right", "bottom", "top", "near", "far")
-    )
+    return _orthographic(*common_finite(left, right, bottom, top, near, far, names=_SIDES))
+
+
+@checked_jit
+def _orthographic(left, right, bottom, top, near, far):
     left = _check_range(left, right, "left", "right")
     bottom = _check_range(bottom, top, "bottom", "top")
     near = _check_range(near, far, "near", "far")
@@ -114,9 +126,11 @@ def frustum(left, right, bottom, top, near, far) -> Float[Array, "4 4"]:
 
     All six finite, `right > left`, `top > bottom` and `0 < near < far`.
     """
-    left, right, bottom, top, near, far = common_finite(
-        left, right, bottom, top, near, far, names=_SIDES
-    )
+    return _frustum(*common_finite(left, right, bottom, top, near, far, names=_SIDES))
+
+
+@checked_jit
+def _frustum(left, right, bottom, top, near, far):
     near = value_error_if(near, near <= 0, "`near` must be positive for a perspective projection")
     near = _check_range(near, far, "near", "far")
     left = _check_range(left, right, "left", "right")
@@ -136,6 +150,10 @@ def _lens(fov_y, aspect, near, far):
     fov_y, aspect, near, far = common_finite(
         fov_y, aspect, near, far, names=("fov_y", "aspect", "near", "far")
     )
+    return _lens_checks(fov_y, aspect, near, far)
+
+
+def _lens_checks(fov_y, aspect, near, far):
     fov_y = check_range(
         fov_y, "fov_y", minimum=0, maximum=jnp.pi, lower_open=True, upper_open=True, what="radians"
     )
@@ -154,10 +172,18 @@ def perspective(fov_y, aspect, near, far) -> Float[Array, "4 4"]:
     - `aspect`: width / height, > 0.
     - `near`, `far`: distances to the clipping planes, `0 < near < far`.
     """
-    fov_y, aspect, near, far = _lens(fov_y, aspect, near, far)
+    fov_y, aspect, near, far = common_finite(
+        fov_y, aspect, near, far, names=("fov_y", "aspect", "near", "far")
+    )
+    return _perspective(fov_y, aspect, near, far)
+
+
+@checked_jit
+def _perspective(fov_y, aspect, near, far):
+    fov_y, aspect, near, far = _lens_checks(fov_y, aspect, near, far)
     top = near * jnp.tan(fov_y / 2)
     right = top * aspect
-    return frustum(-right, right, -top, top, near, far)
+    return _frustum(-right, right, -top, top, near, far)
 
 
 def project(
@@ -168,13 +194,17 @@ def project(
 
 
 def in_view_volume(
-    ndc_points: Float[Array, "*batch 3"], *, tolerance: float = 0.0
+    ndc_points: Float[Array, "*batch 3"], *, tol: float = 0.0
 ) -> Bool[Array, "*batch"]:
-    """Whether NDC points lie inside the canonical view volume `[-1, 1]^3`."""
+    """Whether NDC points lie inside the canonical view volume `[-1, 1]^3`, widened by
+    `tol >= 0` on every side."""
     ndc_points = finite_float(ndc_points, "ndc_points")
     check_last_dim(ndc_points, "ndc_points", (3,), "NDC points")
-    tolerance = check_range(finite_float(tolerance, "tolerance"), "tolerance", minimum=0)
-    return jnp.all(jnp.abs(ndc_points) <= 1 + tolerance, axis=-1)
+    tol = check_range(finite_float(tol, "tol"), "tol", minimum=0)
+    return _in_view_volume(ndc_points, tol)
+
+
+_in_view_volume = checked_jit(lambda p, tol: jnp.all(jnp.abs(p) <= 1 + tol, axis=-1))
 
 
 def ndc_to_pixels(
@@ -188,7 +218,12 @@ def ndc_to_pixels(
     height, width = static_shape(shape)
     ndc_points = finite_float(ndc_points, "ndc_points")
     check_last_dim(ndc_points, "ndc_points", (2, 3, 4), "NDC points")
-    size = jnp.array([width, height], ndc_points.dtype)
+    return _ndc_to_pixels(ndc_points, (height, width))
+
+
+@functools.partial(checked_jit, static_argnums=1)
+def _ndc_to_pixels(ndc_points, shape):
+    size = jnp.array(shape[::-1], ndc_points.dtype)
     return (ndc_points[..., :2] + 1) / 2 * size - 0.5
 
 
@@ -327,11 +362,13 @@ class Camera(eqx.Module):
 
     def matrix(self) -> Float[Array, "4 4"]:
         """World to clip space: projection after view."""
-        return tf.compose(self.view_matrix(), self.projection_matrix())
+        return _camera_matrix(self)
 
     def project(self, points: Float[Array, "*batch N 3"]) -> Float[Array, "*batch N 3"]:
         """World points to NDC."""
-        return project(self.matrix(), points)
+        points = finite_float(points, "points")
+        check_last_dim(points, "points", (3,), "3D world points")
+        return _camera_project(self, points)
 
     def to_pixels(
         self, points: Float[Array, "*batch N 3"], shape: tuple[int, int]
@@ -341,7 +378,17 @@ class Camera(eqx.Module):
 
     def depth(self, points: Float[Array, "*batch N 3"]) -> Float[Array, "*batch N"]:
         """Distance in front of the camera along the viewing axis (eye-space -z)."""
-        return -tf.apply(self.view_matrix(), points)[..., 2]
+        points = finite_float(points, "points")
+        check_last_dim(points, "points", (3,), "3D world points")
+        return _camera_depth(self, points)
+
+
+# A camera's matrices and projections as one compiled call each.
+_camera_matrix = checked_jit(
+    lambda camera: tf.compose(camera.view_matrix(), camera.projection_matrix())
+)
+_camera_project = checked_jit(lambda camera, points: tf.apply(camera.matrix(), points))
+_camera_depth = checked_jit(lambda camera, points: -tf.apply(camera.view_matrix(), points)[..., 2])
 
 
 def _checked_pose(eye, target, up):

@@ -64,7 +64,7 @@ def test_frustum_corners_map_to_cube_corners():
     corners_far = corners_near * f / n
     ndc = vw.project(p, jnp.concatenate([corners_near, corners_far]))
     np.testing.assert_allclose(ndc, [[-1, -1, -1], [1, 1, -1], [-1, -1, 1], [1, 1, 1]], atol=1e-12)
-    assert bool(jnp.all(vw.in_view_volume(ndc, tolerance=1e-9)))
+    assert bool(jnp.all(vw.in_view_volume(ndc, tol=1e-9)))
 
 
 def test_orthographic_box_corners():
@@ -308,9 +308,9 @@ NAN, INF = float("nan"), float("inf")
         (lambda: vw.frustum(-1, 1, -1, 1, -1.0, 10.0), ValueError, "`near` must be positive"),
         (lambda: vw.orthographic(0, 1, 0, 1, 0, NAN), ValueError, "`far` must be finite"),
         (
-            lambda: vw.in_view_volume(jnp.zeros(3), tolerance=-1.0),
+            lambda: vw.in_view_volume(jnp.zeros(3), tol=-1.0),
             ValueError,
-            "`tolerance` must be >= 0",
+            "`tol` must be >= 0",
         ),
         (
             lambda: vw.in_view_volume(jnp.array([NAN, 0, 0])),
