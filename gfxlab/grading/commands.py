@@ -72,8 +72,11 @@ def write_autograder(assignment: authoring.Assignment, directory) -> pathlib.Pat
             }
         )
     options = {
-        k: v for k, v in assignment.config.items() if k in ("preload", "x64", "limits", "forbid")
+        k: v
+        for k, v in assignment.config.items()
+        if k in ("preload", "x64", "limits", "forbid", "separate")
     }
+    _check_separate(assignment)
     config = {
         "format": FORMAT,
         "assignment": assignment.name,
@@ -88,6 +91,21 @@ def write_autograder(assignment: authoring.Assignment, directory) -> pathlib.Pat
         for f in files:
             os.chmod(os.path.join(root, f), 0o600)
     return directory
+
+
+def _check_separate(assignment: authoring.Assignment) -> None:
+    """`separate` names graded functions only: `{function: [functions it may not use]}`."""
+    rules = assignment.config.get("separate") or {}
+    graded = {f for q in assignment.questions for f in q.functions}
+    if not isinstance(rules, dict):
+        raise authoring.AuthoringError("metadata `separate` must map a function to a list")
+    for function, others in rules.items():
+        names = [function, *others] if isinstance(others, list) else [function, None]
+        unknown = [n for n in names if n not in graded]
+        if unknown:
+            raise authoring.AuthoringError(
+                f"metadata `separate`: {unknown[0]!r} is not a function the tests take"
+            )
 
 
 @dataclasses.dataclass
@@ -213,6 +231,7 @@ def check(notebook, *, limits=None) -> GradeResult:
                     raw = session.sandbox.request(
                         "call",
                         session._timeout(session.limits.exec_timeout),
+                        budget=session.remaining(),
                         name="_gfxlab_check",
                         transforms=[],
                         args=_encode([tests[name], name]),
@@ -238,7 +257,7 @@ def check(notebook, *, limits=None) -> GradeResult:
         _bounded(path.name, 200),
         questions,
         session.notes,
-        prot.describe(),
+        session.sandbox.describe() if session.sandbox.applied else prot.describe(),
         0.0,
         session.infrastructure_error,
     )
@@ -404,7 +423,9 @@ def grade_many(submissions, autograder_dir, out_dir, *, jobs=None, limits=None):
     grader = Autograder(directory)
     labels = [_bounded(pathlib.Path(s).name, 200) for s in submissions]
     tasks = [(directory, s, lb, limits) for s, lb in zip(submissions, labels, strict=True)]
-    hard_limit = grader.limits(limits).budget_seconds + HARD_MARGIN_SECONDS
+    # An assignment with `separate` rules may grade a question again in a second sandbox.
+    budgets = 2 if grader.config.get("separate") else 1
+    hard_limit = budgets * grader.limits(limits).budget_seconds + HARD_MARGIN_SECONDS
     results = _run_pool(tasks, jobs, hard_limit)
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -25,7 +25,7 @@ import traceback
 
 import numpy as np
 
-from . import authoring, codec
+from . import authoring, codec, reuse
 from .checks import Feedback, check_array
 from .sandbox import (
     Crash,
@@ -181,7 +181,15 @@ class StudentSession:
             self._note(message)
             self.sandbox.close()
             raise StudentCallError(message)
-        return min(seconds, remaining)
+        return seconds  # CPU seconds; the wall clock is bounded by `remaining()`
+
+    def _timed_out(self, seconds: float) -> str:
+        wall = self.limits.wall_limit(seconds)
+        return f"timed out after {seconds:g} s of CPU time (or {wall:g} s of wall time)"
+
+    def remaining(self) -> float:
+        """Wall seconds left of the submission's budget."""
+        return max(0.0, self.deadline - time.monotonic())
 
     def _ensure(self):
         while not self.sandbox.alive:
@@ -203,6 +211,7 @@ class StudentSession:
                     self.sandbox.request(
                         "exec",
                         self._timeout(self.limits.exec_timeout),
+                        budget=self.remaining(),
                         source=source,
                         cell=self.numbers[i],
                     )
@@ -210,8 +219,9 @@ class StudentSession:
                 except StudentError as exc:
                     self.status[i] = f"code cell {self.numbers[i]} raised {exc}"
                 except Timeout:
-                    seconds = self.limits.exec_timeout
-                    self.status[i] = f"code cell {self.numbers[i]} timed out after {seconds:g} s"
+                    self.status[i] = f"code cell {self.numbers[i]} " + self._timed_out(
+                        self.limits.exec_timeout
+                    )
                 except (Crash, ProtocolError) as exc:
                     self.status[i] = (
                         f"code cell {self.numbers[i]} stopped the student process: {exc}"
@@ -240,7 +250,10 @@ class StudentSession:
         try:
             self._ensure()
             flags = self.sandbox.request(
-                "names", self._timeout(self.limits.call_timeout), names=codec.encode(list(names))
+                "names",
+                self._timeout(self.limits.call_timeout),
+                budget=self.remaining(),
+                names=codec.encode(list(names)),
             )
         except (SandboxError, StudentCallError):
             return {n: True for n in names}  # let the call itself report the problem
@@ -261,13 +274,13 @@ class StudentSession:
         self._ensure()
         timeout = self._timeout(self.limits.call_timeout)
         try:
-            return self.sandbox.request("call", timeout, **payload)
+            return self.sandbox.request("call", timeout, budget=self.remaining(), **payload)
         except StudentError as exc:
             raise StudentRaised(label, str(exc)) from None
         except Timeout:
             if time.monotonic() >= self.deadline:
                 self._timeout(0)
-            reason = f"it timed out after {timeout:g} s"
+            reason = "it " + self._timed_out(timeout)
             self.stopped[name] = reason
             raise StudentCallError(f"{label} failed: {reason}") from None
         except (Crash, ProtocolError) as exc:
@@ -549,11 +562,14 @@ class Autograder:
                 results.append(QuestionResult(q.name, q.points, tests))
         finally:
             session.close()
+        if not public_only:
+            for note in reuse.enforce(self, cells, results, limits):
+                session._note(note)
         return GradeResult(
             label,
             results,
             session.notes,
-            prot.describe(),
+            session.sandbox.describe() if session.sandbox.applied else prot.describe(),
             time.perf_counter() - started,
             session.infrastructure_error,
         )

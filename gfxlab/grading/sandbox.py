@@ -37,6 +37,7 @@ from ._host import (
     _PACKAGE,
     _PACKAGE_TARGET,
     _SCRATCH_INODES,
+    _cgroup_cpu,
     _cgroup_parent,
     _closed_to_others,
     _minimal_env,
@@ -48,9 +49,11 @@ from ._host import (
     _source,
     _system_binds,
     _tasks_of,
-    _tree_rss,
+    _tree_usage,
     bwrap_binary,
+    cgroup_members,
     forbidden_files,
+    make_cgroup,
     sandbox_path,
 )
 
@@ -61,8 +64,10 @@ class Limits:
 
     **Arguments:**
 
-    - `call_timeout`: wall seconds for one call of a student function.
-    - `exec_timeout`: wall seconds for running one notebook cell.
+    - `call_timeout`: CPU seconds the submission's processes may use for one call of a
+      student function (CPU, not wall time: a loaded grading host does not fail honest
+      code); a call that blocks or sleeps stops at `wall_limit(call_timeout)` wall seconds.
+    - `exec_timeout`: CPU seconds for running one notebook cell (wall: `wall_limit`).
     - `start_timeout`: wall seconds for the process to start (imports included).
     - `budget_seconds`: wall seconds for the whole submission, restarts included; what
       runs past it fails with a message.
@@ -88,6 +93,10 @@ class Limits:
     tmp_mb: int = 64
     max_restarts: int = 6
 
+    def wall_limit(self, cpu_seconds: float) -> float:
+        """Wall seconds a request with a CPU limit of `cpu_seconds` may take at most."""
+        return 3.0 * cpu_seconds + 5.0
+
     def rlimits(self) -> dict[str, int]:
         """The `resource` limits (name -> value) to set in each student process."""
         return {
@@ -98,6 +107,19 @@ class Limits:
             "RLIMIT_NOFILE": int(self.open_files),
             "RLIMIT_CORE": 0,
         }
+
+
+def limits_kind(cgroup: bool) -> str:
+    """The resource limits of a submission, in words (with or without its cgroup)."""
+    if cgroup:
+        return (
+            "cgroup v2 (memory.max, pids.max, cpu.max of one core) for all the submission's "
+            "processes together, plus rlimits per process and the per-submission time budget"
+        )
+    return (
+        "rlimits per process, the grader's watch on the memory of all the submission's "
+        "processes together, and the per-submission time budget (no cgroup v2)"
+    )
 
 
 class IsolationUnavailable(RuntimeError):
@@ -122,15 +144,11 @@ class Protections:
     @property
     def limits_kind(self) -> str:
         """How resource limits are enforced on this machine, in words."""
-        if self.cgroup_parent:
-            return "cgroup v2 (memory.max, pids.max, cpu.max) plus rlimits"
-        return (
-            "rlimits per process, the grader's watch on the memory of all the submission's "
-            "processes together, and the per-submission time budget (no cgroup v2 here)"
-        )
+        return limits_kind(bool(self.cgroup_parent))
 
-    def describe(self) -> list[str]:
-        """One line per layer."""
+    def describe(self, applied: str | None = None) -> list[str]:
+        """One line per layer; `applied`: the resource limits a submission really got
+        (default: what this machine offers)."""
         if not self.confined:
             return [f"sandbox unavailable: {self.problem}"]
         who = (
@@ -143,7 +161,7 @@ class Protections:
             "gfxlab read-only; private /tmp, /dev/shm), new user, mount, pid, ipc, net, "
             "uts and cgroup namespaces, new session, empty environment, dies with the grader",
             f"runs as {who}",
-            f"resource limits: {self.limits_kind}",
+            f"resource limits: {applied or self.limits_kind}",
             "seccomp: memfd_create refused (memory no limit would count)"
             if os.uname().machine in _SECCOMP_ARCH
             else "seccomp: none for this architecture (memfd memory counts only in a cgroup)",
@@ -228,6 +246,9 @@ def seccomp_program() -> bytes | None:
     return b"".join(struct.pack("<HBBI", *insn) for insn in program)
 
 
+MAX_ERROR_CHARS = 8000  # an error reply's text (the worker's own are at most 4000)
+
+
 class SandboxError(Exception):
     """The student process failed to answer; the message is shown to the student."""
 
@@ -279,6 +300,8 @@ class Sandbox:
         self.uid: int | None = None
         self.cgroup: str | None = None
         self._memory_checked = 0.0
+        self._cpu_limit: tuple[float, float] | None = None
+        self.applied: set[str] = set()  # the resource limits each start really got
 
     @property
     def alive(self) -> bool:
@@ -390,22 +413,21 @@ class Sandbox:
 
     def _make_cgroup(self) -> None:
         parent = self.protections.cgroup_parent
-        if not parent:
-            return
-        path = pathlib.Path(parent, f"sub-{secrets.token_hex(6)}")
-        try:
-            path.mkdir()
-            (path / "memory.max").write_text(str(int(self.limits.memory_mb) * 2**20))
-            (path / "memory.swap.max").write_text("0") if (
-                path / "memory.swap.max"
-            ).exists() else None
-            (path / "pids.max").write_text(str(int(self.limits.processes)))
-            (path / "cpu.max").write_text("100000 100000")  # one core
-            if self.uid is not None:
-                os.chown(path / "cgroup.procs", self.uid, self.uid)
-            self.cgroup = str(path)
-        except OSError:
+        self.cgroup = None
+        if parent:
+            self.cgroup = make_cgroup(
+                parent,
+                f"sub-{secrets.token_hex(6)}",
+                memory_bytes=int(self.limits.memory_mb) * 2**20,
+                processes=int(self.limits.processes),
+            )
+
+    def _joined_cgroup(self) -> None:
+        """After the start: the process is in its group, or no cgroup counts as applied."""
+        if self.cgroup and self.proc.pid not in cgroup_members(self.cgroup):
+            _remove_cgroup(self.cgroup)
             self.cgroup = None
+        self.applied.add(limits_kind(self.cgroup is not None))
 
     def start(self) -> None:
         """Start the student process and wait until it is ready."""
@@ -472,6 +494,12 @@ class Sandbox:
         if type(reply) is not dict or reply.get("id") != "ready":
             self.close()
             raise Crash("the student process did not start properly")
+        self._joined_cgroup()
+
+    def describe(self) -> list[str]:
+        """The isolation layers, with the resource limits this submission really got."""
+        applied = " / ".join(sorted(self.applied)) or None
+        return self.protections.describe(applied)
 
     def output_tail(self, chars: int = 2000) -> str:
         """The end of the student's stdout/stderr (never parsed, only shown)."""
@@ -485,28 +513,41 @@ class Sandbox:
         except OSError:
             return ""
 
-    def request(self, op: str, timeout: float, **fields):
-        """Send one request; return the decoded value or raise a `SandboxError`."""
+    def request(self, op: str, timeout: float, *, budget: float | None = None, **fields):
+        """Send one request; return the decoded value or raise a `SandboxError`.
+
+        `timeout`: CPU seconds the submission's processes may use on it; it also stops at
+        `Limits.wall_limit(timeout)` wall seconds, and at `budget` wall seconds if given.
+        """
         if not self.alive:
             raise Crash("the student process is not running")
         rid = secrets.token_hex(16)
-        deadline = time.monotonic() + timeout
+        wall = self.limits.wall_limit(timeout)
+        deadline = time.monotonic() + (wall if budget is None else min(wall, budget))
         try:
             message = codec.dumps({"id": rid, "op": op, **fields})
         except codec.WireError as exc:  # a cell or an argument over the wire limit
             raise StudentError(f"cannot be sent to the student process: {exc}") from None
+        self._cpu_limit = (self._cpu_used(), timeout)
         try:
             self._write(message, deadline)
             reply = self._read_reply(deadline)
         except SandboxError:
             self.close()
             raise
+        finally:
+            self._cpu_limit = None
         if type(reply) is not dict or reply.get("id") != rid or type(reply.get("ok")) is not bool:
             self.close()
             raise ProtocolError("the student process sent an unexpected message")
         if not reply["ok"]:
             error = reply.get("error")
-            raise StudentError(error if type(error) is str else "error")
+            if type(error) is not str or len(error) > MAX_ERROR_CHARS:
+                # The worker sends at most 4000 characters: a forged reply (its sender
+                # is stopped like a crash, not called again with the same cost).
+                self.close()
+                raise ProtocolError("the student process sent a malformed error reply")
+            raise StudentError(error)
         try:
             return codec.decode(reply.get("value"), deadline=max(deadline, time.monotonic() + 5))
         except codec.WireError as exc:
@@ -532,9 +573,10 @@ class Sandbox:
         while missing:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
+                self._check_usage(force=True)  # a memory overrun wins over the timeout
                 raise Timeout("timed out")
             ready, _, _ = select.select([self._rep_r], [], [], min(remaining, _MEMORY_POLL))
-            self._check_memory()
+            self._check_usage()
             if not ready:
                 continue
             chunk = os.read(self._rep_r, min(missing, 1 << 20))
@@ -544,25 +586,39 @@ class Sandbox:
             missing -= len(chunk)
         return b"".join(chunks)
 
-    def _check_memory(self) -> None:
-        """Without cgroup v2: the memory of all the submission's processes together.
+    def _cpu_used(self) -> float:
+        """CPU seconds used so far by the submission's processes (cgroup, else /proc)."""
+        if self.cgroup:
+            seconds = _cgroup_cpu(self.cgroup)
+            if seconds is not None:
+                return seconds
+        if self.proc is None:
+            return 0.0
+        return _tree_usage(self.proc.pid)[1]
 
-        RLIMIT_AS bounds one process; children each under it could together exhaust the
-        host. Polled while the grader waits for a reply (every 0.25 s).
+    def _check_usage(self, force: bool = False) -> None:
+        """Polled while the grader waits for a reply (every 0.25 s): the CPU time of the
+        current request, and without cgroup v2 the memory of all the submission's
+        processes together (RLIMIT_AS bounds one process; children each under it could
+        together exhaust the host).
         """
-        if self.cgroup or self.proc is None:
+        if self.proc is None:
             return
         now = time.monotonic()
-        if now - self._memory_checked < _MEMORY_POLL:
+        if not force and now - self._memory_checked < _MEMORY_POLL:
             return
         self._memory_checked = now
-        limit = int(self.limits.memory_mb) * 2**20
-        if _tree_rss(self.proc.pid) > limit:
+        rss, cpu = (0, self._cpu_used()) if self.cgroup else _tree_usage(self.proc.pid)
+        if rss > int(self.limits.memory_mb) * 2**20:
             self.close()
             raise Crash(
                 f"the submission used more than {self.limits.memory_mb} MB of memory "
                 "(all its processes together) and was stopped"
             )
+        if self._cpu_limit is not None:
+            start, limit = self._cpu_limit
+            if cpu - start > limit:
+                raise Timeout("timed out (CPU time)")
 
     def _read_reply(self, deadline: float):
         (size,) = struct.unpack(">I", self._read_exact(4, deadline))
