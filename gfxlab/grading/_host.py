@@ -217,6 +217,25 @@ def _locate(name: str):
     return spec
 
 
+_GFXLAB_KEPT = {"grading", "_resources", "__init__"}  # `check_array` for public tests
+
+
+def expand_forbidden(modules) -> list[str]:
+    """`gfxlab` stands for every gfxlab module but `gfxlab.grading` (whose `checks` the
+    public tests import) and what `import gfxlab` itself needs."""
+    out = []
+    for module in modules:
+        if module != "gfxlab":
+            out.append(module)
+            continue
+        for entry in sorted(_PACKAGE.iterdir()):
+            name = entry.name.removesuffix(".py")
+            is_module = entry.suffix == ".py" or (entry / "__init__.py").is_file()
+            if is_module and name.isidentifier() and name not in _GFXLAB_KEPT:
+                out.append(f"gfxlab.{name}")
+    return list(dict.fromkeys(out))
+
+
 def forbidden_files(modules) -> list[tuple[str, bool]]:
     """Host files to replace for each forbidden module: (path, is a package directory).
 

@@ -52,6 +52,7 @@ from ._host import (
     _tree_usage,
     bwrap_binary,
     cgroup_members,
+    expand_forbidden,
     forbidden_files,
     make_cgroup,
     sandbox_path,
@@ -294,7 +295,7 @@ class Sandbox:
         self.protections = protections or detect_protections()
         self.preload = tuple(preload)
         self.x64 = x64
-        self.forbid = tuple(forbid)
+        self.forbid = tuple(expand_forbidden(forbid))
         self.proc: subprocess.Popen | None = None
         self.workdir: str | None = None
         self.uid: int | None = None
