@@ -305,7 +305,8 @@ _GRADERS: dict[str, Autograder] = {}
 
 def _pool_grader(directory) -> Autograder:
     if directory not in _GRADERS:
-        _GRADERS[directory] = Autograder(directory)
+        # A batch: the next submission's sandbox starts while this one is graded.
+        _GRADERS[directory] = Autograder(directory, warm=True)
     return _GRADERS[directory]
 
 

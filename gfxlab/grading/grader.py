@@ -152,13 +152,24 @@ class StudentSession:
     """
 
     def __init__(
-        self, cells, limits: Limits, *, preload=("numpy",), x64=True, forbid=(), numbers=None
+        self,
+        cells,
+        limits: Limits,
+        *,
+        preload=("numpy",),
+        x64=True,
+        forbid=(),
+        numbers=None,
+        sandbox: Sandbox | None = None,
     ):
         self.cells = list(cells)
         # How the student numbers the cells (In [n]); by default, 1, 2, ...
         self.numbers = list(numbers) if numbers else list(range(1, len(self.cells) + 1))
         self.limits = limits
-        self.sandbox = Sandbox(limits, preload=tuple(preload), x64=x64, forbid=tuple(forbid))
+        # A spare launched ahead of time serves the first start; restarts get fresh ones.
+        self.sandbox = sandbox or Sandbox(
+            limits, preload=tuple(preload), x64=x64, forbid=tuple(forbid)
+        )
         self.status: list[str | None] = [None] * len(self.cells)
         self.stopped: dict[str, str] = {}
         self.restarts = -1
@@ -198,7 +209,10 @@ class StudentSession:
                 raise StudentCallError("the student process crashed too often; giving up")
             self._timeout(1)
             try:
-                self.sandbox.start()
+                if self.sandbox.launched and self.restarts == 0:
+                    self.sandbox.wait_ready()
+                else:
+                    self.sandbox.start()
             except SandboxError as exc:
                 # No student code runs before the process is ready: this is the grader's
                 # problem (host, sandbox), never the student's.
@@ -466,12 +480,17 @@ def _failure_message(exc: BaseException, hidden: bool) -> str:
 class Autograder:
     """An assignment's autograder directory: configuration, tests, reference solution."""
 
-    def __init__(self, directory):
+    def __init__(self, directory, *, warm: bool = False, limits=None):
         self.directory = pathlib.Path(directory).resolve()
         config_path = self.directory / "config.json"
         if not config_path.is_file():
             raise FileNotFoundError(f"{config_path} not found: is this an autograder directory?")
         self.config = json.loads(config_path.read_text())
+        # `warm`: keep one spare sandbox launched (the next submission's, under `limits`),
+        # the first one before the tests load here (`import jax` in both at once).
+        self.warm, self._spare = warm, None
+        if warm:
+            self._launch_spare(self.limits(limits))
         self.questions = [
             authoring.Question(
                 q["name"],
@@ -502,6 +521,7 @@ class Autograder:
             "questions": [],
         }
         grader.questions, grader._namespaces = [], {}
+        grader.warm, grader._spare = False, None
         return grader
 
     @property
@@ -520,15 +540,45 @@ class Autograder:
         values = {**self.config.get("limits", {}), **(overrides or {})}
         return dataclasses.replace(Limits(), **values)
 
-    def session(self, cells, limits=None, numbers=None) -> StudentSession:
-        """A `StudentSession` running `cells` under this assignment's limits and config."""
-        return StudentSession(
-            cells,
-            self.limits(limits),
-            numbers=numbers,
+    def _sandbox_options(self) -> dict:
+        return dict(
             preload=tuple(self.config.get("preload", ["numpy"])),
             x64=bool(self.config.get("x64", True)),
             forbid=tuple(self.config.get("forbid", [])),
+        )
+
+    def _launch_spare(self, limits: Limits) -> None:
+        try:
+            spare = Sandbox(limits, **self._sandbox_options())
+            spare.launch()
+        except Exception:  # no sandbox here: the session's own start reports it
+            return
+        self._spare = spare
+
+    def _take_spare(self, limits: Limits) -> Sandbox | None:
+        spare, self._spare = self._spare, None
+        if spare is not None and not (spare.limits == limits and spare.launched):
+            spare.close()
+            spare = None
+        if self.warm:
+            self._launch_spare(limits)
+        return spare
+
+    def close(self) -> None:
+        """Stop the spare sandbox, if any."""
+        if self._spare is not None:
+            self._spare.close()
+            self._spare = None
+
+    def session(self, cells, limits=None, numbers=None) -> StudentSession:
+        """A `StudentSession` running `cells` under this assignment's limits and config."""
+        limits = self.limits(limits)
+        return StudentSession(
+            cells,
+            limits,
+            numbers=numbers,
+            sandbox=self._take_spare(limits),
+            **self._sandbox_options(),
         )
 
     def grade_cells(

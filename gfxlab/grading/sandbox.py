@@ -301,13 +301,14 @@ class Sandbox:
         self.uid: int | None = None
         self.cgroup: str | None = None
         self._memory_checked = 0.0
+        self._ready = False
         self._cpu_limit: tuple[float, float] | None = None
         self.applied: set[str] = set()  # the resource limits each start really got
 
     @property
     def alive(self) -> bool:
-        """Whether the student process is running."""
-        return self.proc is not None and self.proc.poll() is None
+        """Whether the student process is running and ready for requests."""
+        return self._ready and self.proc is not None and self.proc.poll() is None
 
     def _rlimits(self) -> dict[str, int]:
         limits = self.limits.rlimits()
@@ -432,7 +433,22 @@ class Sandbox:
 
     def start(self) -> None:
         """Start the student process and wait until it is ready."""
+        self.launch()
+        self.wait_ready()
+
+    @property
+    def launched(self) -> bool:
+        """Started (perhaps still importing its preloads) and running."""
+        return self.proc is not None and self.proc.poll() is None
+
+    def launch(self) -> None:
+        """Start the student process without waiting for it (`wait_ready` does).
+
+        A sandbox launched ahead of time (a spare, while the previous submission is
+        graded) has run nothing but its preloads: it is as fresh as one started later.
+        """
         self.close()
+        self._ready = False
         prot = self.protections
         if prot.bwrap is None:
             raise Crash(f"the sandbox cannot start: {prot.problem}")
@@ -485,6 +501,11 @@ class Sandbox:
             if self._seccomp_fd is not None:
                 os.close(self._seccomp_fd)
         os.set_blocking(self._req_w, False)
+
+    def wait_ready(self) -> None:
+        """Wait until a launched student process has imported its preloads."""
+        if self.proc is None:
+            raise Crash("the student process was not started")
         deadline = time.monotonic() + self.limits.start_timeout
         try:
             reply = self._read_reply(deadline)
@@ -496,6 +517,7 @@ class Sandbox:
             self.close()
             raise Crash("the student process did not start properly")
         self._joined_cgroup()
+        self._ready = True
 
     def describe(self) -> list[str]:
         """The isolation layers, with the resource limits this submission really got."""
@@ -644,6 +666,7 @@ class Sandbox:
     def close(self) -> None:
         """Kill the student process, every process it started, and remove its files."""
         proc, self.proc = self.proc, None
+        self._ready = False
         if proc is not None:
             try:
                 os.killpg(proc.pid, signal.SIGKILL)
