@@ -334,6 +334,7 @@ def csv_cell(text) -> str:
 def _pool_worker(conn, grade=None):
     """A grader process: grades the tasks it is sent, one at a time, until `None`."""
     grade = grade or _grade_one
+    conn.send("ready")  # the hard limit counts from here, not from the process's start-up
     while True:
         task = conn.recv()
         if task is None:
@@ -343,6 +344,7 @@ def _pool_worker(conn, grade=None):
 
 # Beyond the submission's own budget: the grader's start-up and result writing.
 HARD_MARGIN_SECONDS = 30.0
+STARTUP_SECONDS = 300.0  # a grader process's own start (imports), before any submission
 
 
 class _Worker:
@@ -351,7 +353,8 @@ class _Worker:
         self.proc = context.Process(target=_pool_worker, args=(child, grade), daemon=True)
         self.proc.start()
         child.close()
-        self.task, self.started = None, 0.0
+        self.task, self.started, self.ready = None, 0.0, False
+        self.born = time.monotonic()
 
     def kill(self):
         self.proc.kill()
@@ -372,22 +375,28 @@ def _run_pool(tasks, jobs, hard_limit, grade=None):
     try:
         while pending or any(w.task is not None for w in workers):
             for w in workers:
-                if w.task is None and pending:
+                if w.ready and w.task is None and pending:
                     w.task, w.started = pending.pop(0), time.monotonic()
                     w.conn.send(tasks[w.task])
-            busy = {w.conn: w for w in workers if w.task is not None}
+            busy = {w.conn: w for w in workers if w.task is not None or not w.ready}
             for conn in wait(list(busy), timeout=0.5):
                 w = busy[conn]
                 try:
-                    results[w.task] = conn.recv()
+                    message = conn.recv()
                 except (EOFError, OSError):  # the grader process died: a fresh one
-                    results[w.task] = _grader_error(tasks[w.task], "the grader process died")
+                    if w.task is not None:
+                        results[w.task] = _grader_error(tasks[w.task], "the grader process died")
                     w.kill()
                     workers[workers.index(w)] = _Worker(context, grade)
                     continue
-                w.task = None
+                if not w.ready:
+                    w.ready = message == "ready"
+                    continue
+                results[w.task], w.task = message, None
             now = time.monotonic()
             for i, w in enumerate(workers):
+                if not w.ready and now - w.born > STARTUP_SECONDS:
+                    raise RuntimeError(f"a grader process did not start in {STARTUP_SECONDS} s")
                 if w.task is not None and now - w.started > hard_limit:
                     results[w.task] = _grader_error(
                         tasks[w.task], f"grading took longer than {hard_limit:g} s and was stopped"

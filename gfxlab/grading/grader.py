@@ -403,16 +403,19 @@ class Autograder:
                 results.append(QuestionResult(q.name, q.points, tests))
         finally:
             session.close()
+        error = session.infrastructure_error
         if not public_only:
-            for note in reuse.enforce(self, cells, results, limits):
+            notes, reuse_error = reuse.enforce(self, cells, results, limits)
+            for note in notes:
                 session._note(note)
+            error = error or reuse_error
         return GradeResult(
             label,
             results,
             session.notes,
             session.sandbox.describe() if session.sandbox.applied else prot.describe(),
             time.perf_counter() - started,
-            session.infrastructure_error,
+            error,
         )
 
     def _grade_question(self, question, session, which="all", rename=None) -> QuestionResult:

@@ -206,11 +206,15 @@ def _message(verdict: Verdict, why: str) -> str:
     )
 
 
-def enforce(grader, cells, results, limits=None) -> list[str]:
+def enforce(grader, cells, results, limits=None) -> tuple[list[str], str | None]:
     """Apply the assignment's `separate` rules to `results` (QuestionResults, changed in
-    place): a test that passes only with a forbidden function's code fails. Notes."""
+    place): a test that passes only with a forbidden function's code fails.
+
+    **Returns:** notes for the student, and the grader's own error if the second sandbox
+    could not start (the submission is then a grading error, never a silent zero).
+    """
     rules = grader.config.get("separate") or {}
-    notes = []
+    notes, error = [], None
     for verdict in plan(cells, rules):
         index = next(
             (i for i, q in enumerate(grader.questions) if verdict.function in q.functions), None
@@ -231,6 +235,9 @@ def enforce(grader, cells, results, limits=None) -> list[str]:
                 again = None
             finally:
                 session.close()
+            if session.infrastructure_error:
+                error = error or session.infrastructure_error
+                continue
             passed = {t.name for t in again.tests if t.passed} if again else set()
             failed = {t.name for t in results[index].tests if t.passed and t.name not in passed}
             why = "this test passes only with them"
@@ -241,4 +248,4 @@ def enforce(grader, cells, results, limits=None) -> list[str]:
                 test.passed, test.message = False, _message(verdict, why)
         if failed:
             notes.append(f"{results[index].name}: " + _message(verdict, why))
-    return notes
+    return notes, error
