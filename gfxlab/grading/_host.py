@@ -261,22 +261,66 @@ _MEMORY_POLL = 0.25
 _SCRATCH_INODES = 4096  # files in each of /tmp and /dev/shm (an inode costs kernel memory)
 
 
+def _stat_usage(pid: int) -> tuple[int, int, int] | None:
+    """(parent pid, resident pages, CPU ticks with reaped children) of one process."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            fields = f.read().rsplit(b")", 1)[1].split()
+        return int(fields[1]), int(fields[21]), sum(int(x) for x in fields[11:15])
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def _children(pid: int) -> list[int] | None:
+    """Children of every thread of `pid` (None where the kernel has no `children` file)."""
+    out = []
+    try:
+        tasks = os.listdir(f"/proc/{pid}/task")
+    except OSError:
+        return []
+    for tid in tasks:
+        try:
+            with open(f"/proc/{pid}/task/{tid}/children", "rb") as f:
+                out.extend(int(x) for x in f.read().split())
+        except FileNotFoundError:
+            return None if tid == str(pid) and not out else out
+        except (OSError, ValueError):
+            continue
+    return out
+
+
 def _tree_usage(root: int) -> tuple[int, float]:
     """Resident memory (bytes) and CPU time (seconds) of process `root` and all its
-    descendants; the CPU time includes children they have reaped (`cutime`, `cstime`)."""
+    descendants; the CPU time includes children they have reaped (`cutime`, `cstime`).
+
+    Walks the tree through `/proc/PID/task/TID/children` (only the submission's own
+    processes are read); without that file, scans every process for its parent.
+    """
+    if _children(root) is None:
+        return _tree_usage_by_scan(root)
+    rss = ticks = 0
+    stack, seen = [root], set()
+    while stack:
+        pid = stack.pop()
+        if pid in seen:
+            continue
+        seen.add(pid)
+        usage = _stat_usage(pid)
+        if usage is not None:
+            rss, ticks = rss + usage[1], ticks + usage[2]
+        stack.extend(_children(pid) or [])
+    return rss * os.sysconf("SC_PAGE_SIZE"), ticks / os.sysconf("SC_CLK_TCK")
+
+
+def _tree_usage_by_scan(root: int) -> tuple[int, float]:
     children: dict[int, list[int]] = {}
     usage: dict[int, tuple[int, int]] = {}
     for entry in os.scandir("/proc"):
-        if not entry.name.isdigit():
-            continue
-        try:
-            with open(f"/proc/{entry.name}/stat", "rb") as f:
-                fields = f.read().rsplit(b")", 1)[1].split()
-            pid = int(entry.name)
-            children.setdefault(int(fields[1]), []).append(pid)
-            usage[pid] = (int(fields[21]), sum(int(x) for x in fields[11:15]))
-        except (OSError, ValueError, IndexError):
-            continue
+        if entry.name.isdigit():
+            found = _stat_usage(int(entry.name))
+            if found is not None:
+                children.setdefault(found[0], []).append(int(entry.name))
+                usage[int(entry.name)] = found[1:]
     rss = ticks = 0
     stack, seen = [root], set()
     while stack:
