@@ -245,22 +245,16 @@ def test_codec_refuses_hash_flooding_and_stops_at_its_deadline():
         codec.decode(strings, deadline=time.monotonic() - 1)
 
 
-def _hang(task):
-    import time
-
-    if task[2] == "hangs":
-        time.sleep(60)
-    return task[2]
-
-
 def test_batch_kills_a_submission_past_its_wall_clock_limit():
     import time
+
+    from grading_attacks.pool import hang
 
     from gfxlab.grading.commands import _run_pool
 
     started = time.monotonic()
     tasks = [(None, None, label, None) for label in ("a", "hangs", "b", "c")]
-    results = _run_pool(tasks, 2, 3.0, grade=_hang)
+    results = _run_pool(tasks, 2, 3.0, grade=hang)
     assert results[0] == "a" and results[2:] == ["b", "c"]
     assert "longer than 3 s and was stopped" in results[1].error
     assert time.monotonic() - started < 30
@@ -495,7 +489,7 @@ def test_call_timeouts_count_cpu_time_not_wall_time():
     with Sandbox(limits, preload=()) as box:
         box.start()
         box.request("exec", 5, cell=1, source=NAPS)
-        assert call(box, "nap", 1.5) == 1.5  # three times the limit in wall time, no CPU
+        assert call(box, "nap", 1.0) == 1.0  # twice the limit in wall time, no CPU
         started = time.monotonic()
         with pytest.raises(Timeout, match="CPU time"):
             call(box, "spin")

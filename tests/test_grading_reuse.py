@@ -77,6 +77,16 @@ def _cells(reference, q12):
     return out
 
 
+def test_forbidding_gfxlab_keeps_only_the_public_test_helpers():
+    from gfxlab.grading._host import expand_forbidden
+
+    names = expand_forbidden(["gfxlab", "bezier"])
+    for module in ("gfxlab.curves", "gfxlab.animation", "gfxlab.exam", "gfxlab.jpeg"):
+        assert module in names
+    assert "bezier" in names and "gfxlab" not in names
+    assert not any(n.startswith(("gfxlab.grading", "gfxlab._resources")) for n in names)
+
+
 def test_static_plan_of_the_cheats():
     for name, source in CHEATS.items():
         cells = ["import jax.numpy as jnp", source]

@@ -290,9 +290,10 @@ def _gfxlab_check(source, question):
 
 
 def _grade_one(args):
-    autograder_dir, submission, label, limits = args
+    autograder_dir, submission, label, limits, *more = args
     try:
         grader = _pool_grader(autograder_dir)
+        grader.warm = bool(more[0]) if more else True  # a spare only if more will come
         result = grader.grade(submission, limits=limits)
         result.submission = label
         return result
@@ -432,7 +433,10 @@ def grade_many(submissions, autograder_dir, out_dir, *, jobs=None, limits=None):
     require_confinement()
     grader = Autograder(directory)
     labels = [_bounded(pathlib.Path(s).name, 200) for s in submissions]
-    tasks = [(directory, s, lb, limits) for s, lb in zip(submissions, labels, strict=True)]
+    tasks = [
+        (directory, s, lb, limits, i < len(submissions) - jobs)
+        for i, (s, lb) in enumerate(zip(submissions, labels, strict=True))
+    ]
     # An assignment with `separate` rules may grade a question again in a second sandbox.
     budgets = 2 if grader.config.get("separate") else 1
     hard_limit = budgets * grader.limits(limits).budget_seconds + HARD_MARGIN_SECONDS
