@@ -10,6 +10,7 @@ import json
 import os
 import pathlib
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -244,22 +245,16 @@ def test_codec_refuses_hash_flooding_and_stops_at_its_deadline():
         codec.decode(strings, deadline=time.monotonic() - 1)
 
 
-def _hang(task):
-    import time
-
-    if task[2] == "hangs":
-        time.sleep(60)
-    return task[2]
-
-
 def test_batch_kills_a_submission_past_its_wall_clock_limit():
     import time
+
+    from grading_attacks.pool import hang
 
     from gfxlab.grading.commands import _run_pool
 
     started = time.monotonic()
     tasks = [(None, None, label, None) for label in ("a", "hangs", "b", "c")]
-    results = _run_pool(tasks, 2, 3.0, grade=_hang)
+    results = _run_pool(tasks, 2, 3.0, grade=hang)
     assert results[0] == "a" and results[2:] == ["b", "c"]
     assert "longer than 3 s and was stopped" in results[1].error
     assert time.monotonic() - started < 30
@@ -455,6 +450,56 @@ def test_private_scratch_is_bounded():
                     f"[os.remove(p) for f in os.listdir({place!r}) "
                     f"if os.path.isfile(p := os.path.join({place!r}, f))]",
                 )
+
+
+NAPS = """
+import time
+
+
+def nap(seconds):
+    time.sleep(seconds)
+    return seconds
+
+
+def spin():
+    while True:
+        pass
+"""
+
+
+@grading
+def test_call_timeouts_count_cpu_time_not_wall_time():
+    """A loaded host does not fail honest code: a call's limit is the CPU time of the
+    submission's processes; one that blocks stops at its wall-clock limit or budget."""
+    from gfxlab.grading.sandbox import Timeout
+
+    def call(box, name, *args, budget=None):
+        return box.request(
+            "call",
+            0.5,
+            budget=budget,
+            name=name,
+            transforms=codec.encode([]),
+            args=codec.encode(list(args)),
+            kwargs=codec.encode({}),
+        )
+
+    limits = Limits(call_timeout=0.5)
+    assert limits.wall_limit(0.5) == 6.5
+    with Sandbox(limits, preload=()) as box:
+        box.start()
+        box.request("exec", 5, cell=1, source=NAPS)
+        assert call(box, "nap", 1.0) == 1.0  # twice the limit in wall time, no CPU
+        started = time.monotonic()
+        with pytest.raises(Timeout, match="CPU time"):
+            call(box, "spin")
+        assert not box.alive and time.monotonic() - started < 6.5
+        box.start()
+        box.request("exec", 5, cell=1, source=NAPS)
+        started = time.monotonic()
+        with pytest.raises(Timeout):
+            call(box, "nap", 60, budget=1.0)  # the submission's budget bounds the wall
+        assert 0.9 < time.monotonic() - started < 3
 
 
 # --- the shipped assignments -------------------------------------------------------------

@@ -11,7 +11,10 @@
 
 Student code runs only in a bubblewrap sandbox (`gfxlab.grading.sandbox`: allow-list
 filesystem, every namespace, unprivileged, limits and a per-submission time budget);
-tests run in the grader and see the student's functions through a plain-data RPC. The
+tests run in the grader and see the student's functions through a plain-data RPC. An
+assignment's `separate` rules (`gfxlab.grading.reuse`) give no marks to an answer that
+calls another graded answer; `forbid` makes modules (all of gfxlab: `"gfxlab"`)
+unimportable. The
 authoring format is documented in `gfxlab.grading.authoring`. Command line:
 `python -m gfxlab assign|check|grade` (`gfxlab.grading.cli`).
 """

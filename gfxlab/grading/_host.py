@@ -3,7 +3,7 @@
 Which host paths the student process needs and where they appear inside it, the module
 files a forbidden module stands for (found without importing anything), the bwrap
 binary, a delegated cgroup v2 subtree, and the process-tree measures the grader uses
-when there is no cgroup (`tree_rss`, `tasks_of`).
+when there is no cgroup (`_tree_usage`, `_tasks_of`).
 """
 
 from __future__ import annotations
@@ -59,32 +59,97 @@ def bwrap_binary() -> str | None:
         return shutil.which("bwrap")
 
 
-def _cgroup_parent() -> str | None:
-    """A cgroup v2 directory where this process may create child groups, if any."""
-    root = pathlib.Path("/sys/fs/cgroup")
+_CONTROLLERS = ("memory", "pids", "cpu")
+
+
+def _cgroup_mkdir(path) -> None:
+    """mkdir in cgroupfs (the kernel fills the new group with its interface files)."""
+    os.mkdir(path)
+
+
+def _cgroup_rmdir(path) -> None:
+    os.rmdir(path)
+
+
+def _has_controllers(group: pathlib.Path) -> bool:
+    return (group / "memory.max").exists() and (group / "pids.max").exists()
+
+
+def _cgroup_parent(
+    root: str = "/sys/fs/cgroup", self_cgroup: str = "/proc/self/cgroup"
+) -> str | None:
+    """A cgroup v2 directory where this process may create child groups, if any.
+
+    The grader's own group (`0::` line of `self_cgroup`, under the unified hierarchy at
+    `root`) must offer the memory, pids and cpu controllers and be writable (a systemd
+    `Delegate=yes` unit, a container with its own cgroup namespace). cgroup v2 allows
+    controllers only in groups without processes of their own, so the grader moves
+    itself into a leaf `gfxlab-grader` first where needed; submissions then get groups
+    under `gfxlab-grading`. None (rlimits and the grader's watch apply) when anything of
+    this is missing or refused.
+    """
+    top = pathlib.Path(root)
     try:
-        controllers = (root / "cgroup.controllers").read_text().split()
         line = next(
-            ln
-            for ln in pathlib.Path("/proc/self/cgroup").read_text().splitlines()
-            if ln.startswith("0::")
+            ln for ln in pathlib.Path(self_cgroup).read_text().splitlines() if ln.startswith("0::")
         )
+        here = top / line[3:].strip().lstrip("/")
+        if not set(_CONTROLLERS) <= set((here / "cgroup.controllers").read_text().split()):
+            return None
+        enabled = set((here / "cgroup.subtree_control").read_text().split())
+        if not set(_CONTROLLERS) <= enabled:
+            leaf = here / "gfxlab-grader"
+            if not leaf.is_dir():
+                _cgroup_mkdir(leaf)
+            (leaf / "cgroup.procs").write_text(str(os.getpid()))
+            (here / "cgroup.subtree_control").write_text(" ".join(f"+{c}" for c in _CONTROLLERS))
+        parent = here / "gfxlab-grading"
+        if not parent.is_dir():
+            _cgroup_mkdir(parent)
+        (parent / "cgroup.subtree_control").write_text(" ".join(f"+{c}" for c in _CONTROLLERS))
+        probe = parent / f"probe-{os.getpid()}"
+        if not probe.is_dir():
+            _cgroup_mkdir(probe)
+        ok = _has_controllers(probe)
+        _cgroup_rmdir(probe)
     except (OSError, StopIteration):
         return None
-    if not {"memory", "pids", "cpu"} <= set(controllers):
-        return None
-    here = root / line[3:].strip().lstrip("/")
-    parent = here / "gfxlab-grading"
+    return str(parent) if ok else None
+
+
+def make_cgroup(parent: str, name: str, *, memory_bytes: int, processes: int) -> str | None:
+    """A submission's group under `parent` with its limits written; None if refused.
+
+    `memory.max` (and `memory.swap.max` 0 where swap is accounted), `pids.max`, and
+    `cpu.max` of one core.
+    """
+    path = pathlib.Path(parent, name)
     try:
-        parent.mkdir(exist_ok=True)
-        (parent / "cgroup.subtree_control").write_text("+memory +pids +cpu")
-        probe = parent / f"probe-{os.getpid()}"
-        probe.mkdir(exist_ok=True)
-        ok = (probe / "memory.max").exists() and (probe / "pids.max").exists()
-        probe.rmdir()
+        _cgroup_mkdir(path)
     except OSError:
         return None
-    return str(parent) if ok else None
+    try:
+        (path / "memory.max").write_text(str(int(memory_bytes)))
+        (path / "pids.max").write_text(str(int(processes)))
+        (path / "cpu.max").write_text("100000 100000")  # one core
+        if not _has_controllers(path):
+            raise OSError("the memory and pids controllers are not enabled")
+    except OSError:
+        _remove_cgroup(str(path))
+        return None
+    try:
+        (path / "memory.swap.max").write_text("0")
+    except OSError:  # no swap accounting: nothing to bound
+        pass
+    return str(path)
+
+
+def cgroup_members(path: str) -> list[int]:
+    """Process ids in a group (`cgroup.procs`)."""
+    try:
+        return [int(x) for x in pathlib.Path(path, "cgroup.procs").read_text().split()]
+    except (OSError, ValueError):
+        return []
 
 
 def _source(name: str) -> str:
@@ -152,6 +217,25 @@ def _locate(name: str):
     return spec
 
 
+_GFXLAB_KEPT = {"grading", "_resources", "__init__"}  # `check_array` for public tests
+
+
+def expand_forbidden(modules) -> list[str]:
+    """`gfxlab` stands for every gfxlab module but `gfxlab.grading` (whose `checks` the
+    public tests import) and what `import gfxlab` itself needs."""
+    out = []
+    for module in modules:
+        if module != "gfxlab":
+            out.append(module)
+            continue
+        for entry in sorted(_PACKAGE.iterdir()):
+            name = entry.name.removesuffix(".py")
+            is_module = entry.suffix == ".py" or (entry / "__init__.py").is_file()
+            if is_module and name.isidentifier() and name not in _GFXLAB_KEPT:
+                out.append(f"gfxlab.{name}")
+    return list(dict.fromkeys(out))
+
+
 def forbidden_files(modules) -> list[tuple[str, bool]]:
     """Host files to replace for each forbidden module: (path, is a package directory).
 
@@ -177,30 +261,89 @@ _MEMORY_POLL = 0.25
 _SCRATCH_INODES = 4096  # files in each of /tmp and /dev/shm (an inode costs kernel memory)
 
 
-def _tree_rss(root: int) -> int:
-    """Resident memory (bytes) of process `root` and all its descendants."""
-    children: dict[int, list[int]] = {}
-    rss: dict[int, int] = {}
-    for entry in os.scandir("/proc"):
-        if not entry.name.isdigit():
-            continue
+def _stat_usage(pid: int) -> tuple[int, int, int] | None:
+    """(parent pid, resident pages, CPU ticks with reaped children) of one process."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            fields = f.read().rsplit(b")", 1)[1].split()
+        return int(fields[1]), int(fields[21]), sum(int(x) for x in fields[11:15])
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def _children(pid: int) -> list[int] | None:
+    """Children of every thread of `pid` (None where the kernel has no `children` file)."""
+    out = []
+    try:
+        tasks = os.listdir(f"/proc/{pid}/task")
+    except OSError:
+        return []
+    for tid in tasks:
         try:
-            with open(f"/proc/{entry.name}/stat", "rb") as f:
-                fields = f.read().rsplit(b")", 1)[1].split()
-            pid = int(entry.name)
-            children.setdefault(int(fields[1]), []).append(pid)
-            rss[pid] = int(fields[21])
-        except (OSError, ValueError, IndexError):
+            with open(f"/proc/{pid}/task/{tid}/children", "rb") as f:
+                out.extend(int(x) for x in f.read().split())
+        except FileNotFoundError:
+            return None if tid == str(pid) and not out else out
+        except (OSError, ValueError):
             continue
-    total, stack, seen = 0, [root], set()
+    return out
+
+
+def _tree_usage(root: int) -> tuple[int, float]:
+    """Resident memory (bytes) and CPU time (seconds) of process `root` and all its
+    descendants; the CPU time includes children they have reaped (`cutime`, `cstime`).
+
+    Walks the tree through `/proc/PID/task/TID/children` (only the submission's own
+    processes are read); without that file, scans every process for its parent.
+    """
+    if _children(root) is None:
+        return _tree_usage_by_scan(root)
+    rss = ticks = 0
+    stack, seen = [root], set()
     while stack:
         pid = stack.pop()
         if pid in seen:
             continue
         seen.add(pid)
-        total += rss.get(pid, 0)
+        usage = _stat_usage(pid)
+        if usage is not None:
+            rss, ticks = rss + usage[1], ticks + usage[2]
+        stack.extend(_children(pid) or [])
+    return rss * os.sysconf("SC_PAGE_SIZE"), ticks / os.sysconf("SC_CLK_TCK")
+
+
+def _tree_usage_by_scan(root: int) -> tuple[int, float]:
+    children: dict[int, list[int]] = {}
+    usage: dict[int, tuple[int, int]] = {}
+    for entry in os.scandir("/proc"):
+        if entry.name.isdigit():
+            found = _stat_usage(int(entry.name))
+            if found is not None:
+                children.setdefault(found[0], []).append(int(entry.name))
+                usage[int(entry.name)] = found[1:]
+    rss = ticks = 0
+    stack, seen = [root], set()
+    while stack:
+        pid = stack.pop()
+        if pid in seen:
+            continue
+        seen.add(pid)
+        pages, cpu = usage.get(pid, (0, 0))
+        rss, ticks = rss + pages, ticks + cpu
         stack.extend(children.get(pid, []))
-    return total * os.sysconf("SC_PAGE_SIZE")
+    return rss * os.sysconf("SC_PAGE_SIZE"), ticks / os.sysconf("SC_CLK_TCK")
+
+
+def _cgroup_cpu(path: str) -> float | None:
+    """CPU seconds used by a cgroup v2 group (`cpu.stat` `usage_usec`), None if unreadable."""
+    try:
+        for line in pathlib.Path(path, "cpu.stat").read_text().splitlines():
+            key, _, value = line.partition(" ")
+            if key == "usage_usec":
+                return int(value) / 1e6
+    except (OSError, ValueError):
+        return None
+    return None
 
 
 def _signal_name(number: int) -> str:
@@ -217,7 +360,7 @@ def _remove_cgroup(path: str) -> None:
         pass
     for _ in range(50):
         try:
-            os.rmdir(path)
+            _cgroup_rmdir(path)
             return
         except OSError:
             time.sleep(0.02)

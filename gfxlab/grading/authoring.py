@@ -467,17 +467,31 @@ def _x64_cell(config: dict) -> dict | None:
 
 def _forbid_cell(config: dict) -> dict | None:
     forbid = config.get("forbid") or []
-    if not forbid:
+    separate = config.get("separate") or {}
+    if not forbid and not separate:
         return None
-    names = ", ".join(f"`{m}`" for m in forbid)
-    return new_cell(
-        "markdown",
-        f"**Not allowed in this assignment:** {names} (and their submodules). The grader "
-        "makes these modules unimportable: a cell that imports one fails with an "
-        "`ImportError` there, so what it defines is missing and the tests that need it "
-        "score 0. A module that itself needs a forbidden one cannot be imported either "
-        "(the message names both).",
-    )
+    text = ""
+    if forbid:
+        names = ", ".join(f"`{m}`" for m in forbid)
+        text = (
+            f"**Not allowed in this assignment:** {names} (and their submodules). The grader "
+            "makes these modules unimportable: a cell that imports one fails with an "
+            "`ImportError` there, so what it defines is missing and the tests that need it "
+            "score 0. A module that itself needs a forbidden one cannot be imported either "
+            "(the message names both)."
+        )
+        if "gfxlab" in forbid:
+            text += " `gfxlab.grading.checks`, which the public tests use, stays importable."
+    for function, others in separate.items():
+        names = " or ".join(f"`{n}`" for n in others)
+        text += (
+            f"\n\n**Write `{function}` on its own:** it may not call {names}, nor share "
+            "their helper functions or values; a test that passes only with them scores 0 "
+            "(the grader runs it again with them removed). Such a notebook may not use "
+            "`exec`, `eval`, `globals`, `getattr` or modules such as `sys` and `inspect` "
+            "either: the question would score 0."
+        )
+    return new_cell("markdown", text.strip())
 
 
 def student_code_cells(notebook) -> list[str]:

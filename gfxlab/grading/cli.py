@@ -161,7 +161,9 @@ def _grade(argv) -> int:
     if not args.submission.is_file():
         print(f"error: {args.submission} not found", file=sys.stderr)
         return 1
-    autograder = grader.Autograder(args.autograder)
+    # The sandbox starts while the tests load; one submission: no spare after it.
+    autograder = grader.Autograder(args.autograder, warm=True, limits=_limits(args))
+    autograder.warm = False
     try:
         result = autograder.grade(args.submission, limits=_limits(args))
     except IsolationUnavailable:

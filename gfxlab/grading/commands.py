@@ -72,8 +72,11 @@ def write_autograder(assignment: authoring.Assignment, directory) -> pathlib.Pat
             }
         )
     options = {
-        k: v for k, v in assignment.config.items() if k in ("preload", "x64", "limits", "forbid")
+        k: v
+        for k, v in assignment.config.items()
+        if k in ("preload", "x64", "limits", "forbid", "separate")
     }
+    _check_separate(assignment)
     config = {
         "format": FORMAT,
         "assignment": assignment.name,
@@ -88,6 +91,21 @@ def write_autograder(assignment: authoring.Assignment, directory) -> pathlib.Pat
         for f in files:
             os.chmod(os.path.join(root, f), 0o600)
     return directory
+
+
+def _check_separate(assignment: authoring.Assignment) -> None:
+    """`separate` names graded functions only: `{function: [functions it may not use]}`."""
+    rules = assignment.config.get("separate") or {}
+    graded = {f for q in assignment.questions for f in q.functions}
+    if not isinstance(rules, dict):
+        raise authoring.AuthoringError("metadata `separate` must map a function to a list")
+    for function, others in rules.items():
+        names = [function, *others] if isinstance(others, list) else [function, None]
+        unknown = [n for n in names if n not in graded]
+        if unknown:
+            raise authoring.AuthoringError(
+                f"metadata `separate`: {unknown[0]!r} is not a function the tests take"
+            )
 
 
 @dataclasses.dataclass
@@ -213,6 +231,7 @@ def check(notebook, *, limits=None) -> GradeResult:
                     raw = session.sandbox.request(
                         "call",
                         session._timeout(session.limits.exec_timeout),
+                        budget=session.remaining(),
                         name="_gfxlab_check",
                         transforms=[],
                         args=_encode([tests[name], name]),
@@ -238,7 +257,7 @@ def check(notebook, *, limits=None) -> GradeResult:
         _bounded(path.name, 200),
         questions,
         session.notes,
-        prot.describe(),
+        session.sandbox.describe() if session.sandbox.applied else prot.describe(),
         0.0,
         session.infrastructure_error,
     )
@@ -271,9 +290,10 @@ def _gfxlab_check(source, question):
 
 
 def _grade_one(args):
-    autograder_dir, submission, label, limits = args
+    autograder_dir, submission, label, limits, *more = args
     try:
         grader = _pool_grader(autograder_dir)
+        grader.warm = bool(more[0]) if more else True  # a spare only if more will come
         result = grader.grade(submission, limits=limits)
         result.submission = label
         return result
@@ -286,7 +306,8 @@ _GRADERS: dict[str, Autograder] = {}
 
 def _pool_grader(directory) -> Autograder:
     if directory not in _GRADERS:
-        _GRADERS[directory] = Autograder(directory)
+        # A batch: the next submission's sandbox starts while this one is graded.
+        _GRADERS[directory] = Autograder(directory, warm=True)
     return _GRADERS[directory]
 
 
@@ -314,6 +335,7 @@ def csv_cell(text) -> str:
 def _pool_worker(conn, grade=None):
     """A grader process: grades the tasks it is sent, one at a time, until `None`."""
     grade = grade or _grade_one
+    conn.send("ready")  # the hard limit counts from here, not from the process's start-up
     while True:
         task = conn.recv()
         if task is None:
@@ -323,6 +345,7 @@ def _pool_worker(conn, grade=None):
 
 # Beyond the submission's own budget: the grader's start-up and result writing.
 HARD_MARGIN_SECONDS = 30.0
+STARTUP_SECONDS = 300.0  # a grader process's own start (imports), before any submission
 
 
 class _Worker:
@@ -331,7 +354,8 @@ class _Worker:
         self.proc = context.Process(target=_pool_worker, args=(child, grade), daemon=True)
         self.proc.start()
         child.close()
-        self.task, self.started = None, 0.0
+        self.task, self.started, self.ready = None, 0.0, False
+        self.born = time.monotonic()
 
     def kill(self):
         self.proc.kill()
@@ -352,22 +376,28 @@ def _run_pool(tasks, jobs, hard_limit, grade=None):
     try:
         while pending or any(w.task is not None for w in workers):
             for w in workers:
-                if w.task is None and pending:
+                if w.ready and w.task is None and pending:
                     w.task, w.started = pending.pop(0), time.monotonic()
                     w.conn.send(tasks[w.task])
-            busy = {w.conn: w for w in workers if w.task is not None}
+            busy = {w.conn: w for w in workers if w.task is not None or not w.ready}
             for conn in wait(list(busy), timeout=0.5):
                 w = busy[conn]
                 try:
-                    results[w.task] = conn.recv()
+                    message = conn.recv()
                 except (EOFError, OSError):  # the grader process died: a fresh one
-                    results[w.task] = _grader_error(tasks[w.task], "the grader process died")
+                    if w.task is not None:
+                        results[w.task] = _grader_error(tasks[w.task], "the grader process died")
                     w.kill()
                     workers[workers.index(w)] = _Worker(context, grade)
                     continue
-                w.task = None
+                if not w.ready:
+                    w.ready = message == "ready"
+                    continue
+                results[w.task], w.task = message, None
             now = time.monotonic()
             for i, w in enumerate(workers):
+                if not w.ready and now - w.born > STARTUP_SECONDS:
+                    raise RuntimeError(f"a grader process did not start in {STARTUP_SECONDS} s")
                 if w.task is not None and now - w.started > hard_limit:
                     results[w.task] = _grader_error(
                         tasks[w.task], f"grading took longer than {hard_limit:g} s and was stopped"
@@ -403,8 +433,13 @@ def grade_many(submissions, autograder_dir, out_dir, *, jobs=None, limits=None):
     require_confinement()
     grader = Autograder(directory)
     labels = [_bounded(pathlib.Path(s).name, 200) for s in submissions]
-    tasks = [(directory, s, lb, limits) for s, lb in zip(submissions, labels, strict=True)]
-    hard_limit = grader.limits(limits).budget_seconds + HARD_MARGIN_SECONDS
+    tasks = [
+        (directory, s, lb, limits, i < len(submissions) - jobs)
+        for i, (s, lb) in enumerate(zip(submissions, labels, strict=True))
+    ]
+    # An assignment with `separate` rules may grade a question again in a second sandbox.
+    budgets = 2 if grader.config.get("separate") else 1
+    hard_limit = budgets * grader.limits(limits).budget_seconds + HARD_MARGIN_SECONDS
     results = _run_pool(tasks, jobs, hard_limit)
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

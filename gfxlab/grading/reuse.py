@@ -1,0 +1,251 @@
+"""Questions that must be answered on their own: no marks for calling another answer.
+
+An assignment's metadata `separate` maps a graded function to the functions it may not
+use, e.g. `{"de_casteljau": ["bezier_point"]}`: de Casteljau's algorithm must not be the
+Bernstein form of question 1 called again. The check is made in two steps.
+
+1. Static (`plan`): the names `bezier_point` stands for (`forbidden_closure`: the name,
+   every name bound by the same top-level statements, and the functions and values of
+   the notebook they use) must not be used anywhere else in the notebook. A notebook
+   that also uses dynamic lookups (`exec`, `eval`, `globals`, `getattr`, dunder
+   attributes, `sys`, `inspect`, ...) cannot be checked this way: the question scores 0
+   (`HATCH_NAMES`, `HATCH_MODULES`).
+2. Dynamic, when the names are used elsewhere (an alias, a helper, a container): the
+   question's tests run again in a second sandbox in which those statements are replaced
+   by functions that raise (`check_cells`): their code is not in that process at all, so
+   no alias or container can keep it. A test that passes only with them scores 0.
+
+Sharing a helper with the forbidden function counts as using it (the handout says so).
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import secrets
+
+HATCH_NAMES = frozenset(
+    {
+        "exec", "eval", "compile", "globals", "locals", "vars", "getattr", "setattr",
+        "delattr", "__import__", "breakpoint", "help", "type", "object", "super",
+        "memoryview", "open", "input", "classmethod", "staticmethod", "property",
+    }
+)  # fmt: skip
+HATCH_MODULES = frozenset(
+    {
+        "sys", "gc", "inspect", "types", "ctypes", "builtins", "importlib", "__main__",
+        "operator", "pickle", "marshal", "code", "codeop", "runpy", "copyreg", "dill",
+        "cloudpickle", "traceback", "dis", "pdb", "bdb", "string", "ast", "functools",
+        "weakref", "os", "io", "threading", "multiprocessing", "signal",
+    }
+)  # fmt: skip
+HATCH_ATTRIBUTES = frozenset(
+    {
+        "tb_frame", "tb_next", "f_globals", "f_locals", "f_back", "f_builtins", "f_code",
+        "gi_frame", "cr_frame", "ag_frame", "gi_code", "cr_code", "modules", "exc_info",
+        "attrgetter", "methodcaller", "sys", "os", "builtins", "getframe",
+    }
+)  # fmt: skip
+
+
+@dataclasses.dataclass
+class Verdict:
+    """What the static step found for one rule."""
+
+    function: str
+    forbidden: tuple[str, ...]
+    closure: frozenset = frozenset()
+    hatch: str | None = None  # an escape hatch that makes the notebook uncheckable
+    dynamic: bool = False  # the names are used elsewhere: run the second sandbox
+
+
+def _units(cells) -> list[ast.stmt]:
+    out = []
+    for source in cells:
+        try:
+            out.extend(ast.parse(source).body)
+        except (SyntaxError, ValueError):  # the cell fails in the sandbox anyway
+            continue
+    return out
+
+
+def _bound(stmt: ast.stmt) -> set[str]:
+    """Top-level names `stmt` binds (plus any it declares `global` anywhere inside)."""
+    names: set[str] = set()
+    if isinstance(stmt, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+        names.add(stmt.name)
+    elif isinstance(stmt, (ast.Import, ast.ImportFrom)):
+        names.update((a.asname or a.name).split(".")[0] for a in stmt.names)
+    else:
+        stack = [stmt]
+        while stack:
+            node = stack.pop()
+            if isinstance(node, ast.Name) and isinstance(node.ctx, (ast.Store, ast.Del)):
+                names.add(node.id)
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                names.add(node.name)
+                continue
+            if isinstance(
+                node, (ast.Lambda, ast.ListComp, ast.SetComp, ast.DictComp, ast.GeneratorExp)
+            ):
+                continue
+            stack.extend(ast.iter_child_nodes(node))
+    for node in ast.walk(stmt):
+        if isinstance(node, (ast.Global, ast.Nonlocal)):
+            names.update(node.names)
+    return names
+
+
+def _loaded(stmt: ast.stmt) -> set[str]:
+    return {n.id for n in ast.walk(stmt) if isinstance(n, ast.Name) and type(n.ctx) is ast.Load}
+
+
+def _hatch(stmt: ast.stmt) -> str | None:
+    for node in ast.walk(stmt):
+        if isinstance(node, ast.Name) and (
+            node.id in HATCH_NAMES or (node.id.startswith("__") and node.id.endswith("__"))
+        ):
+            return f"`{node.id}`"
+        if isinstance(node, ast.Attribute) and (
+            node.attr.startswith("_") or node.attr in HATCH_ATTRIBUTES
+        ):
+            return f"the attribute `{node.attr}`"
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.name.split(".")[0] in HATCH_MODULES:
+                    return f"the module `{alias.name}`"
+        if isinstance(node, ast.ImportFrom):
+            module = (node.module or "").split(".")[0]
+            if node.level or module in HATCH_MODULES:
+                return f"the module `{node.module}`"
+    return None
+
+
+def forbidden_closure(units, forbidden, function) -> frozenset:
+    """The names `forbidden` stand for: every name bound by a statement that binds one,
+    and the notebook's functions and values such statements use (not imports, and not
+    `function` itself when only used: the forbidden code may use the graded one)."""
+    imports = {n for u in units if isinstance(u, (ast.Import, ast.ImportFrom)) for n in _bound(u)}
+    bound_by = {}
+    for u in units:
+        if not isinstance(u, (ast.Import, ast.ImportFrom)):
+            for name in _bound(u):
+                bound_by.setdefault(name, []).append(u)
+    closure, todo = set(), list(forbidden)
+    while todo:
+        name = todo.pop()
+        if name in closure:
+            continue
+        closure.add(name)
+        for u in bound_by.get(name, []):
+            todo.extend(_bound(u))
+            todo.extend(
+                n for n in _loaded(u) if n in bound_by and n not in imports and n != function
+            )
+    return frozenset(closure)
+
+
+def plan(cells, rules: dict) -> list[Verdict]:
+    """The static step for every rule `function -> [forbidden names]`."""
+    units = _units(cells)
+    hatch = next((h for h in map(_hatch, units) if h), None)
+    verdicts = []
+    for function, forbidden in rules.items():
+        verdict = Verdict(function, tuple(forbidden))
+        verdict.closure = forbidden_closure(units, verdict.forbidden, function)
+        verdict.hatch = hatch
+        binders = [u for u in units if _bound(u) & verdict.closure]
+        others = [u for u in units if not any(u is b for b in binders)]
+        verdict.dynamic = any(_loaded(u) & verdict.closure for u in others) or any(
+            function in _bound(u) for u in binders
+        )
+        verdicts.append(verdict)
+    return verdicts
+
+
+def check_cells(cells, closure, token: str) -> list[str]:
+    """The notebook with `closure`'s code removed: each statement binding one of them
+    becomes a stub that raises; every other top-level statement that is not a definition
+    runs under `try` (a demo line calling a stub does not stop the cell)."""
+    stub = f"_gx_unavailable_{token}"
+    out = [
+        f"def {stub}(name):\n"
+        "    def unavailable(*args, **kwargs):\n"
+        "        raise NameError(f'`{name}` is not available in this question')\n"
+        "    return unavailable\n"
+    ]
+    for source in cells:
+        try:
+            body = ast.parse(source).body
+        except (SyntaxError, ValueError):
+            out.append(source)
+            continue
+        new = []
+        for u in body:
+            names = _bound(u)
+            if names & closure:
+                new.extend(ast.parse(f"{n} = {stub}({n!r})").body[0] for n in sorted(names))
+            elif isinstance(u, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                new.append(u)
+            else:
+                new.append(ast.Try(body=[u], handlers=[_pass_handler()], orelse=[], finalbody=[]))
+        out.append(ast.unparse(ast.fix_missing_locations(ast.Module(body=new, type_ignores=[]))))
+    out.append("\n".join(f"{n} = {stub}({n!r})" for n in sorted(closure)))
+    return out
+
+
+def _pass_handler() -> ast.ExceptHandler:
+    return ast.ExceptHandler(type=ast.Name("Exception", ast.Load()), name=None, body=[ast.Pass()])
+
+
+def _message(verdict: Verdict, why: str) -> str:
+    names = ", ".join(f"`{n}`" for n in verdict.forbidden)
+    return (
+        f"`{verdict.function}` must be written on its own, without {names} (nor the "
+        f"functions and values they use): {why}"
+    )
+
+
+def enforce(grader, cells, results, limits=None) -> tuple[list[str], str | None]:
+    """Apply the assignment's `separate` rules to `results` (QuestionResults, changed in
+    place): a test that passes only with a forbidden function's code fails.
+
+    **Returns:** notes for the student, and the grader's own error if the second sandbox
+    could not start (the submission is then a grading error, never a silent zero).
+    """
+    rules = grader.config.get("separate") or {}
+    notes, error = [], None
+    for verdict in plan(cells, rules):
+        index = next(
+            (i for i, q in enumerate(grader.questions) if verdict.function in q.functions), None
+        )
+        if index is None or not any(t.passed for t in results[index].tests):
+            continue
+        if verdict.hatch:
+            failed = {t.name for t in results[index].tests}
+            why = f"the notebook uses {verdict.hatch}, so this cannot be checked; 0 points"
+        elif verdict.dynamic:
+            session = grader.session(
+                check_cells(cells, verdict.closure, secrets.token_hex(8)), limits
+            )
+            try:
+                session.start()
+                again = grader._grade_question(grader.questions[index], session)
+            except Exception:  # anything that stops the check: nothing passes it
+                again = None
+            finally:
+                session.close()
+            if session.infrastructure_error:
+                error = error or session.infrastructure_error
+                continue
+            passed = {t.name for t in again.tests if t.passed} if again else set()
+            failed = {t.name for t in results[index].tests if t.passed and t.name not in passed}
+            why = "this test passes only with them"
+        else:
+            continue
+        for test in results[index].tests:
+            if test.passed and test.name in failed:
+                test.passed, test.message = False, _message(verdict, why)
+        if failed:
+            notes.append(f"{results[index].name}: " + _message(verdict, why))
+    return notes, error

@@ -1,0 +1,200 @@
+"""Answers that call another answer or the library's own implementation score nothing.
+
+Assignment 3 says `de_casteljau` must not use `bezier_point` (and the other way round),
+and every assignment forbids gfxlab itself. The submissions below are graded by the real
+command line, inside a throwaway namespace like the attack suite; the static part of the
+check (`gfxlab.grading.reuse.plan`) is tested on its own, without a sandbox.
+"""
+
+import json
+import pathlib
+import subprocess
+import sys
+
+import pytest
+from grading_attacks.attacks import write_notebook
+
+from gfxlab.grading import Limits, Sandbox, assign, codec, reuse
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+SOURCE = ROOT / "labs/assignments/03_bezier.ipynb"
+RULES = {"de_casteljau": ["bezier_point"], "bezier_point": ["de_casteljau"]}
+
+BERNSTEIN = """
+from math import comb
+
+
+def _bern(control, u):
+    control = jnp.asarray(control)
+    n = control.shape[0] - 1
+    w = jnp.array([comb(n, i) * u**i * (1 - u) ** (n - i) for i in range(n + 1)])
+    return w @ control
+"""
+DE_CASTELJAU = """
+def de_casteljau(control, u):
+    points = jnp.asarray(control)
+    while points.shape[0] > 1:
+        points = (1 - u) * points[:-1] + u * points[1:]
+    return points[0]
+"""
+CHEATS = {
+    # The realistic cheat: q1 written for any degree, q2 the same function again.
+    "alias": BERNSTEIN + "\n\nbezier_point = _bern\nde_casteljau = bezier_point\n",
+    "call": BERNSTEIN
+    + "\n\ndef bezier_point(control, u):\n    return _bern(control, u)\n\n\n"
+    + "def de_casteljau(control, u):\n    return bezier_point(control, u)\n",
+    "shared_helper": BERNSTEIN
+    + "\n\ndef bezier_point(control, u):\n    return _bern(control, u)\n\n\n"
+    + "def de_casteljau(control, u):\n    return _bern(control, u)\n",
+    "container": BERNSTEIN
+    + "\n\ndef bezier_point(control, u):\n    return _bern(control, u)\n\n\nTABLE = {}\n\n\n"
+    + "def _register():\n    TABLE['f'] = bezier_point\n\n\n_register()\n\n\n"
+    + "def de_casteljau(control, u):\n    return TABLE['f'](control, u)\n",
+    "exec": BERNSTEIN
+    + "\n\ndef bezier_point(control, u):\n    return _bern(control, u)\n\n\n"
+    + "exec('def de_casteljau(control, u):\\n    return bezier_point(control, u)')\n",
+    # The library's own implementation, through a module the assignment did not name.
+    "library": DE_CASTELJAU.replace("def de_casteljau", "def _unused")
+    + "\n\nfrom gfxlab.animation.deform import bezier_path\n\n\n"
+    + "def de_casteljau(control, u):\n    return bezier_path(jnp.asarray(control))(u)\n",
+}
+
+
+# Graded through the command line (JAX start-up is slow: the others only statically).
+GRADED = ["container"]
+
+
+def _cells(reference, q12):
+    """The reference solution with q1 and q2 replaced by `q12` (a demo line kept)."""
+    out = []
+    for cell in reference:
+        if "def bezier_point" in cell:
+            out.append(q12)
+        elif "def de_casteljau" in cell:
+            continue
+        else:
+            out.append(cell)
+    return out
+
+
+def test_forbidding_gfxlab_keeps_only_the_public_test_helpers():
+    from gfxlab.grading._host import expand_forbidden
+
+    names = expand_forbidden(["gfxlab", "bezier"])
+    for module in ("gfxlab.curves", "gfxlab.animation", "gfxlab.exam", "gfxlab.jpeg"):
+        assert module in names
+    assert "bezier" in names and "gfxlab" not in names
+    assert not any(n.startswith(("gfxlab.grading", "gfxlab._resources")) for n in names)
+
+
+def test_static_plan_of_the_cheats():
+    for name, source in CHEATS.items():
+        cells = ["import jax.numpy as jnp", source]
+        verdicts = {v.function: v for v in reuse.plan(cells, RULES)}
+        q2 = verdicts["de_casteljau"]
+        if name == "exec":
+            assert q2.hatch == "`exec`"
+        elif name == "library":
+            assert not q2.dynamic and q2.hatch is None  # the import stub stops it
+        else:
+            assert q2.dynamic, name
+    # An honest notebook needs no second sandbox; a demo line using both needs one.
+    honest = ["import jax.numpy as jnp", BERNSTEIN.replace("_bern", "bezier_point"), DE_CASTELJAU]
+    assert not any(v.dynamic or v.hatch for v in reuse.plan(honest, RULES))
+    demo = [*honest, "print(bezier_point([[0.0], [1.0]], 0.5), de_casteljau([[0.0], [1.0]], 0.5))"]
+    assert all(v.dynamic for v in reuse.plan(demo, RULES))
+    # bezier_point written with de_casteljau breaks the other rule only.
+    q1_uses_q2 = [
+        "import jax.numpy as jnp",
+        DE_CASTELJAU,
+        "def bezier_point(c, u):\n    return de_casteljau(c, u)",
+    ]
+    verdicts = {v.function: v for v in reuse.plan(q1_uses_q2, RULES)}
+    assert verdicts["bezier_point"].dynamic and not verdicts["de_casteljau"].dynamic
+    assert verdicts["de_casteljau"].closure == {"bezier_point"}
+
+
+def test_check_cells_remove_the_forbidden_code():
+    cells = ["import jax.numpy as jnp", CHEATS["container"]]
+    closure = reuse.plan(cells, RULES)[0].closure
+    assert closure == {"bezier_point", "_bern"}
+    checked = reuse.check_cells(cells, closure, "t0k")
+    text = "\n".join(checked)
+    assert "w @ control" not in text  # the Bernstein code is not in the second process
+    assert "bezier_point = _gx_unavailable_t0k('bezier_point')" in text
+    assert "try:\n    _register()\nexcept Exception:\n    pass" in text
+    namespace = {}
+    for cell in checked:
+        exec(cell, namespace)
+    with pytest.raises(NameError, match="not available"):
+        namespace["de_casteljau"]([[0.0], [1.0]], 0.5)
+
+
+@pytest.fixture(scope="module")
+def graded(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("reuse")
+    autograder = assign(SOURCE, tmp / "assignment", verify_tests=False).autograder
+    reference = json.loads((autograder / "solution.json").read_text())
+    folder = tmp / "submissions"
+    folder.mkdir()
+    honest = next(c for c in reference if "def bezier_point" in c) + "\n\n" + DE_CASTELJAU
+    demo = "\n\nprint(bezier_point(SEED, 0.25), de_casteljau(SEED, 0.25))\n"
+    write_notebook(_cells(reference, honest + demo), folder / "honest_demo.ipynb")
+    for name in GRADED:
+        write_notebook(_cells(reference, CHEATS[name]), folder / f"{name}.ipynb")
+    code = (
+        "import sys; sys.path.insert(0, sys.argv[1]); from gfxlab.grading.cli import "
+        "main; sys.exit(main('grade', sys.argv[2:]))"
+    )
+    cmd = ["unshare", "--pid", "--fork", "--kill-child", "--mount-proc", "--ipc", "--mount"]
+    cmd += [sys.executable, "-I", "-c", code, str(ROOT), str(folder)]
+    cmd += ["--autograder", str(autograder), "--out", str(tmp / "graded"), "--jobs", "2"]
+    run = subprocess.run(
+        cmd, capture_output=True, text=True, timeout=400, env={"PATH": "/usr/bin:/bin"}
+    )
+    assert run.returncode == 0, run.stderr[-3000:]
+    reports = {}
+    for name in ["honest_demo", *GRADED]:
+        reports[name] = json.loads((tmp / "graded" / name / "results.json").read_text())
+    return reports
+
+
+def _question(report, name):
+    return round(sum(t["score"] for t in report["tests"] if t["name"].startswith(name)), 6)
+
+
+def test_honest_notebook_with_a_demo_line_keeps_every_mark(graded):
+    assert graded["honest_demo"]["score"] == 15, graded["honest_demo"]["output"]
+
+
+@pytest.mark.parametrize("name", GRADED)
+def test_answers_made_of_another_answer_score_nothing(graded, name):
+    report = graded[name]
+    assert _question(report, "q2") == 0, (name, report)
+    assert _question(report, "q3") == 5, (name, report)  # the rest is graded as usual
+    text = json.dumps(report)
+    assert "`de_casteljau` must be written on its own, without `bezier_point`" in text
+    assert "this test passes only with them" in text
+    if name in ("call", "container"):
+        assert _question(report, "q1") == 5, (name, report)  # q1 is its own answer
+
+
+def test_the_library_is_unimportable_through_any_of_its_modules():
+    """`forbid: ["gfxlab"]`: a Bezier curve from `gfxlab.animation` is out of reach too."""
+    source = (
+        "try:\n    from gfxlab.animation.deform import bezier_path\n"
+        "except ImportError as exc:\n    MESSAGE = str(exc)\n"
+        "def get():\n    return MESSAGE\n"
+    )
+    with Sandbox(Limits(), preload=(), forbid=("gfxlab",)) as box:
+        box.start()
+        box.request("exec", 10, cell=1, source=source)
+        message = box.request(
+            "call",
+            10,
+            name="get",
+            transforms=codec.encode([]),
+            args=codec.encode([]),
+            kwargs=codec.encode({}),
+        )
+    assert message.startswith("`gfxlab.animation` is not allowed in this assignment")
