@@ -146,8 +146,10 @@ def test_subsample_upsample(subsampling, maybe_jit):
     np.testing.assert_allclose(small, ref, atol=1e-12)
     up = jpeg.upsample(small, (7, 9), subsampling=subsampling)
     assert up.shape == x.shape
-    const = jpeg.upsample(jnp.full((4, 5), 0.3), (8, 10), subsampling=subsampling)
+    const = jpeg.upsample(jnp.full((8 // v, 10 // h), 0.3), (8, 10), subsampling=subsampling)
     np.testing.assert_allclose(const, 0.3, atol=1e-12)
+    with pytest.raises(ValueError, match="`chroma` must have shape"):  # not what subsample gives
+        jpeg.upsample(jnp.full((8 // v + 1, 10 // h), 0.3), (8, 10), subsampling=subsampling)
 
 
 def test_blocks_roundtrip_with_edge_padding(maybe_jit):

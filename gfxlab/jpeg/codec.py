@@ -16,6 +16,7 @@ import functools
 
 import numpy as np
 
+from gfxlab._checks import is_traced
 from gfxlab._pixels import to_uint8
 from gfxlab.jpeg import _encoder as E
 from gfxlab.jpeg import _libjpeg as L
@@ -62,6 +63,11 @@ def _as_uint8(image) -> np.ndarray:
     """`image` as uint8 `(H, W)` or `(H, W, 3)` (the JPEG-specific shape checks)."""
     if image is None:
         raise TypeError("`image` must be an image array, got None")
+    if is_traced(image):
+        raise TypeError(
+            "`image` must be a concrete array: the file codec runs on the host and cannot "
+            "be traced under jax.jit / grad (use `compress` for a differentiable round trip)"
+        )
     arr = np.asarray(image)
     if arr.ndim == 3 and arr.shape[-1] == 1:
         arr = arr[..., 0]
