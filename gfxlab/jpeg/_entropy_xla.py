@@ -14,7 +14,8 @@ nanoseconds per symbol instead of a Python interpreter's hundreds.
   block) stop the loop with a status code that `decode_scan` turns into `JPEGError`,
   with the same messages as the Python loop.
 
-Shapes are bucketed (`_bucket`) so that files of similar sizes share a compiled
+Shapes are bucketed (`_bucket`, and the bit window is as long as the coefficient
+array when the file fits in it) so that files of one image size share a compiled
 program; the tables, the block plan, the restart interval and the segment starts are
 arguments.
 """
@@ -78,13 +79,19 @@ def decode_scan_compiled(stream, starts, plan, n_mcu: int, restart: int, n_block
                 tables.append(_lut(table))
             ids[row, j] = index[id(table)]
         ids[0, j] = component
-    luts = np.stack(tables + [tables[0]] * (2 * _MAX_PLAN - len(tables)))
-    window = _windows(stream, _bucket(stream.size + 8, 1 << 12))
+    # 4 tables (256 KB each) cover the usual files; at most 8 distinct in a scan
+    luts = np.stack(tables + [tables[0]] * ((4 if len(tables) <= 4 else 8) - len(tables)))
+    out_size = _bucket(n_blocks, 1 << 10) * 64
+    # The window's length follows the image, not the file, where the file fits (up to
+    # a byte per coefficient, past quality 95 of most photos): files of one image size
+    # then share the program whatever their quality.
+    needed = stream.size + 8
+    window = _windows(stream, out_size if needed <= out_size else 1 << (needed - 1).bit_length())
     starts = np.asarray(starts + [starts[-1]] * 2, np.int32)
     seg = np.zeros(_bucket(starts.size, 8), np.int32)
     seg[: starts.size] = starts
     seg[starts.size :] = starts[-1]
-    program = _program(_bucket(n_blocks, 1 << 10) * 64)
+    program = _program(out_size)
     status, bit, coef = program(
         window, luts, ids, seg, np.array([len(plan), n_mcu, restart], np.int32)
     )

@@ -508,17 +508,8 @@ def _integer(value, name: str) -> int:
 
 
 def category(value: int) -> int:
-    """JPEG magnitude category (SSSS): the bit length of `|value|`.
-
-    **Arguments:**
-
-    - `value`: an integer in -32767..32767 (JPEG's 16-bit coefficients and
-      differences: categories 0..15).
-
-    **Returns:**
-
-    The category, an int in 0..15.
-    """
+    """JPEG magnitude category (SSSS): the bit length of `|value|`, for an integer
+    `value` in -32767..32767 (16-bit coefficients and differences: categories 0..15)."""
     number = _integer(value, "value")
     if abs(number) > 32767:
         raise ValueError(f"`value` must be in -32767..32767 (categories 0..15), got {number}")
