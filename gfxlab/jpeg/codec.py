@@ -92,8 +92,7 @@ def _as_uint8(image, *, batch: bool = False) -> np.ndarray:
             arr = arr[..., 0]
         if arr.ndim not in (2, 3) or (arr.ndim == 3 and arr.shape[-1] != 3):
             raise ValueError(
-                f"`image` must have shape (H, W), (H, W, 1) or (H, W, 3) (or a stack (B, H, W, "
-                f"3) / (B, H, W, 1)), got {arr.shape}"
+                f"`image` must have shape (H, W), (H, W, 1) or (H, W, 3), got {arr.shape}"
             )
         sides = arr.shape[:2]
     if min(sides) < 1 or max(sides) > 65535:
