@@ -117,7 +117,40 @@ BASELINES |= {}
 # -- brdf, color
 BASELINES |= {}
 # -- image, jpeg, raster
-BASELINES |= {}
+BASELINES |= {
+    # jpeg: an 8 x 8 RGB image in [0, 1], an 8 x 8 block and table, and the smallest
+    # valid baseline JPEG (8 x 8 grey, one-code Huffman tables, all zero).
+    "jpeg.coefficients": {"image": (_JPEG_RGB := [
+        [[((r + 2 * c + 3 * k) % 9) / 8 for k in range(3)] for c in range(8)] for r in range(8)
+    ])},
+    "jpeg.encode": {"image": _JPEG_RGB},
+    "jpeg.decode": {"data": (  # max_pixels None: no limit (valid)
+        b"\xff\xd8"
+        + b"\xff\xdb\x00\x43\x00" + bytes([1] * 64)  # DQT
+        + b"\xff\xc0\x00\x0b\x08\x00\x08\x00\x08\x01\x01\x11\x00"  # SOF0 8 x 8 grey
+        + b"\xff\xc4\x00\x14\x00\x01" + bytes(15) + b"\x00"  # DHT DC: '0' -> category 0
+        + b"\xff\xc4\x00\x14\x10\x01" + bytes(15) + b"\x00"  # DHT AC: '0' -> EOB
+        + b"\xff\xda\x00\x08\x01\x01\x00\x00\x3f\x00"  # SOS
+        + b"\x3f\xff\xd9"  # DC 0, EOB, 1-bit padding; EOI
+    ), "max_pixels": None},
+    "jpeg.dequantize": {
+        "quantized": (_JPEG_BLOCK := [[float((3 * r - 5 * c) % 11 - 5) for c in range(8)]
+                                      for r in range(8)]),
+        "table": (_JPEG_TABLE := [[float(1 + r + c) for c in range(8)] for r in range(8)]),
+    },
+    "jpeg.quantize": {"coefficients": _JPEG_BLOCK, "table": _JPEG_TABLE},
+    "jpeg.huffman_code_block": {"coefficients": [3, -2, 1] + [0] * 61},
+    "jpeg.huffman_codes": {"spec": ([0, 1, 5, 1, 1, 1, 1, 1, 1] + [0] * 7, list(range(12)))},
+    "jpeg.level_shift": {"samples": _JPEG_BLOCK},
+    "jpeg.psnr": {"a": _JPEG_BLOCK, "b": _JPEG_TABLE},
+    "jpeg.run_length": {"ac": [0, 0, 5, -1] + [0] * 59},
+    "jpeg.unzigzag": {"sequence": [float(k % 7) for k in range(64)]},
+    "jpeg.zigzag": {"block": _JPEG_BLOCK},
+    # real-valued qualities (2.5 is valid): the bad values are None, NaN, inf, a string
+    "jpeg.compress": {"quality": 50.0},
+    "jpeg.exact_tables": {"quality": 50.0},
+    "jpeg.quant_tables_continuous": {"quality": 50.0},
+}  # fmt: skip
 # -- end of module blocks
 NAMED = {  # guesses by parameter name
     "shape": (8, 8), "window": [0.0, 0.0, 1.0, 1.0], "viewport": [0.0, 0.0, 4.0, 4.0],

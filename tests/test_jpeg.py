@@ -146,8 +146,10 @@ def test_subsample_upsample(subsampling, maybe_jit):
     np.testing.assert_allclose(small, ref, atol=1e-12)
     up = jpeg.upsample(small, (7, 9), subsampling=subsampling)
     assert up.shape == x.shape
-    const = jpeg.upsample(jnp.full((4, 5), 0.3), (8, 10), subsampling=subsampling)
+    const = jpeg.upsample(jnp.full((8 // v, 10 // h), 0.3), (8, 10), subsampling=subsampling)
     np.testing.assert_allclose(const, 0.3, atol=1e-12)
+    with pytest.raises(ValueError, match="`chroma` must have shape"):  # not what subsample gives
+        jpeg.upsample(jnp.full((8 // v + 1, 10 // h), 0.3), (8, 10), subsampling=subsampling)
 
 
 def test_blocks_roundtrip_with_edge_padding(maybe_jit):
@@ -278,6 +280,25 @@ def test_encode_large_images_byte_identical_to_pillow():
         assert ours == pillow_bytes(img, quality, subsampling), (quality, subsampling)
     assert b"\xff\x00" in ours  # byte stuffing exercised
     assert jpeg.encode(img[..., 0], quality=60) == pillow_bytes(img[..., 0], 60)
+
+
+def test_batched_encode_is_byte_identical_to_pillow_per_image():
+    # A stack of images gives one file per image, each Pillow's (the compiled path at
+    # the size of the test above, so its programs are reused, and the NumPy path).
+    stack = np.stack([photo(261, 259, seed=s) for s in (3, 4, 5)])
+    files = jpeg.encode(stack, quality=75)
+    assert isinstance(files, list) and len(files) == 3
+    for img, data in zip(stack, files, strict=True):
+        assert data == pillow_bytes(img, 75)
+    grey = np.stack([photo(20, 30, seed=s, grey=True) for s in (1, 2)])[..., None]
+    for img, data in zip(grey, jpeg.encode(grey, quality=40, subsampling="4:4:4"), strict=True):
+        assert data == pillow_bytes(img[..., 0], 40, "4:4:4")
+    small = stack[:2, :17, :9] / 255.0  # float input, rounded to uint8 as for one image
+    assert jpeg.encode(small, quality=90) == [jpeg.encode(x, quality=90) for x in small]
+    with pytest.raises(ValueError, match="`image`"):
+        jpeg.encode(np.zeros((2, 8, 8, 2), np.uint8))
+    with pytest.raises(ValueError, match="`image`"):
+        jpeg.encode(np.zeros((0, 8, 8, 3), np.uint8))
 
 
 def test_banded_encoding_equals_one_pass_for_any_band_count():

@@ -106,6 +106,22 @@ CASES = [
     (lambda: jpeg.quant_tables(101), ValueError, "`quality`"),
     (lambda: jpeg.upsample(np.zeros((2, 2)), (0, 4)), ValueError, "shape"),
     (lambda: jpeg.blocks(np.zeros((4, 4)), size=0), ValueError, "`size`"),
+    # huge sizes and values, out-of-range qualities, inconsistent shapes
+    (lambda: jpeg.blocks(np.zeros((4, 4)), size=10**12), ValueError, "`size`"),
+    (lambda: jpeg.blocks(np.zeros((4, 4)), size=1025), ValueError, "`size`"),
+    (lambda: jpeg.category(10**12), ValueError, "`value`"),
+    (lambda: jpeg.category(-32768), ValueError, "`value`"),
+    (lambda: jpeg.compress(np.zeros((8, 8)), quality=1e12), ValueError, "`quality`"),
+    (lambda: jpeg.compress(np.zeros((8, 8)), quality=0.5), ValueError, "`quality`"),
+    (lambda: jpeg.compress(np.zeros((0, 8)), quality=50.0), ValueError, "`image`"),
+    (lambda: jpeg.exact_tables(100.5), ValueError, "`quality`"),
+    (lambda: jpeg.quant_tables_continuous(1e12), ValueError, "`quality`"),
+    (lambda: jpeg.quant_tables_continuous(0.0), ValueError, "`quality`"),
+    (lambda: jpeg.upsample(np.zeros((4, 7)), (8, 8)), ValueError, "`chroma`"),
+    (lambda: jpeg.upsample(np.zeros((4, 4)), (8, 8), subsampling="4:2:2"), ValueError, "`chroma`"),
+    (lambda: jpeg.psnr(np.zeros((0, 8)), np.zeros((8, 8))), ValueError, "`a`"),
+    (lambda: jax.jit(jpeg.encode)(jnp.zeros((8, 8))), TypeError, "`image`"),
+    (lambda: jax.jit(jpeg.coefficients)(jnp.zeros((8, 8, 3))), TypeError, "`image`"),
 ]
 
 
@@ -129,6 +145,9 @@ TRACED = [
     (lambda q: jpeg.compress(jnp.zeros((8, 8)), quality=q), NAN, "`quality`"),
     (lambda x: jpeg.compress(x, quality=50.0), np.full((8, 8), NAN), "`image`"),
     (lambda q: jpeg.exact_tables(q)[0], INF, "`quality`"),
+    (lambda q: jpeg.exact_tables(q)[0], 101.0, "`quality`"),
+    (lambda q: jpeg.quant_tables_continuous(q)[0], 0.5, "`quality`"),
+    (lambda q: jpeg.compress(jnp.zeros((8, 8)), quality=q), 1e12, "`quality`"),
 ]
 
 
@@ -149,3 +168,7 @@ def test_good_calls_still_work_under_jit():
     assert float(jpeg.psnr(np.zeros(4), np.full(4, 25.5), peak=255)) == pytest.approx(20.0)
     assert jpeg.psnr(np.ones(3), np.ones(3)) == np.inf
     assert jpeg.category(np.int64(-5)) == 3 and jpeg.category(4.0) == 3
+    assert jpeg.category(-32767) == 15 and jpeg.category(0) == 0
+    # the range ends of `quality` are valid
+    assert float(jpeg.quant_tables_continuous(1.0)[0].max()) == 255.0
+    assert int(jpeg.exact_tables(100.0)[0].max()) == 1

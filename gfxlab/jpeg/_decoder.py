@@ -1,7 +1,8 @@
 """`decode`: baseline JPEG files, pixel for pixel as libjpeg-turbo decodes them.
 
 The markers are parsed in Python; the scan is entropy-decoded by `_entropy` into a
-preallocated coefficient array; the pixels are then reconstructed exactly as
+preallocated coefficient array (by the compiled loop of `_entropy_xla` for large
+images); the pixels are then reconstructed exactly as
 libjpeg-turbo does by default (islow IDCT, fancy upsampling, its colour tables),
 vectorized over all blocks: NumPy for small images, one compiled XLA program per
 image geometry for large ones.
@@ -339,6 +340,10 @@ def decode(data, *, max_pixels: int | None = MAX_PIXELS) -> np.ndarray:
     Colour follows libjpeg: JFIF files are YCbCr; Adobe-marked (transform 0) or
     'R', 'G', 'B'-labelled files are RGB and are not colour-converted. A file that
     ends after a complete scan without its EOI marker decodes with a warning.
+
+    Images of 1024 blocks or more (64 K pixels) are entropy-decoded by a compiled XLA
+    loop and reconstructed by a compiled program: the first file of a size bucket
+    compiles them (seconds), later files of similar size reuse them.
 
     **Arguments:**
 

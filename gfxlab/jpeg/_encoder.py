@@ -349,9 +349,13 @@ def _fdct(blocks, xp):
     """jfdctint.c on level-shifted `(..., 8, 8)` samples; the output is transposed,
     `[..., u, v]` for horizontal frequency u and vertical frequency v (the column pass
     reads the row pass's output transposed, and that is its natural layout)."""
-    m = L.FDCT_MATRIX.T.astype(np.int32)
-    rows = L._descale(blocks @ m, L.CONST_BITS - L.PASS1_BITS, xp)
-    return L._descale(xp.swapaxes(rows, -1, -2) @ m, L.CONST_BITS + L.PASS1_BITS, xp)
+    # The butterflies on whole columns of the block stack, as jfdctint.c runs them on
+    # one row: exact 32-bit integer arithmetic, elementwise (an integer matrix product
+    # is several times slower in XLA on CPU, and float32 is not exact here).
+    rows = xp.stack(L._fdct_1d([blocks[..., j] for j in range(8)]), axis=-1)
+    rows = L._descale(rows, L.CONST_BITS - L.PASS1_BITS, xp)
+    out = xp.stack(L._fdct_1d([rows[..., j, :] for j in range(8)]), axis=-1)
+    return L._descale(out, L.CONST_BITS + L.PASS1_BITS, xp)
 
 
 def scan_coefficients(image, divisors, lay: Layout, xp):

@@ -18,6 +18,9 @@ import numpy as np
 from gfxlab.jpeg._tables import huffman_codes
 
 LOOKAHEAD = 12  # bits per first-level lookup
+# From this many blocks on (512 x 512 grey: 4096), the scan is decoded by the compiled
+# loop of `_entropy_xla` (compiled once per size bucket); fewer run in Python.
+COMPILE_FROM_BLOCKS = 1024
 _PAD_BYTES = 264  # slack past the end: one block reads at most 64 * 31 bits
 
 
@@ -146,6 +149,13 @@ def decode_scan(data: bytes, plan, n_mcu: int, restart: int) -> np.ndarray:
         )
     if restart and -(-n_mcu // restart) > len(starts) - 1:
         raise JPEGError("truncated JPEG: missing restart interval")
+    if n_blocks >= COMPILE_FROM_BLOCKS:
+        from gfxlab.jpeg._entropy_xla import _MESSAGES, decode_scan_compiled
+
+        status, bit, coef = decode_scan_compiled(stream, starts, plan, n_mcu, restart, n_blocks)
+        if status:
+            raise JPEGError(_MESSAGES[status].format(bit))
+        return coef
     coef = np.zeros((n_blocks, 64), np.int16)
     _run(windows(stream), starts, n_mcu, restart, plan, memoryview(coef.reshape(-1)))
     return coef

@@ -16,6 +16,7 @@ import functools
 
 import numpy as np
 
+from gfxlab._checks import is_traced
 from gfxlab._pixels import to_uint8
 from gfxlab.jpeg import _encoder as E
 from gfxlab.jpeg import _libjpeg as L
@@ -30,7 +31,14 @@ from gfxlab.jpeg._tables import (
     ijg_tables,
 )
 
-__all__ = ["JPEGError", "MAX_PIXELS", "encode", "decode", "integer_tables", "coefficients"]
+__all__ = [
+    "JPEGError",
+    "MAX_PIXELS",
+    "encode",
+    "decode",
+    "integer_tables",
+    "coefficients",
+]
 
 
 # --- shared helpers --------------------------------------------------------------
@@ -52,22 +60,42 @@ def _check_quality(quality) -> int:
     return int(quality)
 
 
+_NAMES = {factors: name for name, factors in SUBSAMPLING.items()}
+
+
 def _check_subsampling(subsampling) -> tuple[int, int]:
     if subsampling not in SUBSAMPLING:
         raise ValueError(f"`subsampling` must be one of {sorted(SUBSAMPLING)}, got {subsampling!r}")
     return SUBSAMPLING[subsampling]
 
 
-def _as_uint8(image) -> np.ndarray:
-    """`image` as uint8 `(H, W)` or `(H, W, 3)` (the JPEG-specific shape checks)."""
+def _as_uint8(image, *, batch: bool = False) -> np.ndarray:
+    """`image` as uint8 `(H, W)` or `(H, W, 3)` (the JPEG-specific shape checks); with
+    `batch`, a stack `(B, H, W, 3)` or `(B, H, W, 1)` -> `(B, H, W, 3)` / `(B, H, W)`."""
     if image is None:
         raise TypeError("`image` must be an image array, got None")
+    if is_traced(image):
+        raise TypeError(
+            "`image` must be a concrete array: the file codec runs on the host and cannot "
+            "be traced under jax.jit / grad (use `compress` for a differentiable round trip)"
+        )
     arr = np.asarray(image)
-    if arr.ndim == 3 and arr.shape[-1] == 1:
-        arr = arr[..., 0]
-    if arr.ndim not in (2, 3) or (arr.ndim == 3 and arr.shape[-1] != 3):
-        raise ValueError(f"`image` must have shape (H, W), (H, W, 1) or (H, W, 3), got {arr.shape}")
-    if arr.shape[0] < 1 or arr.shape[1] < 1 or max(arr.shape[:2]) > 65535:
+    if batch:
+        if arr.ndim != 4 or arr.shape[-1] not in (1, 3) or arr.shape[0] < 1:
+            raise ValueError(
+                f"`image` must be a stack (B, H, W, 3) or (B, H, W, 1), got shape {arr.shape}"
+            )
+        arr = arr[..., 0] if arr.shape[-1] == 1 else arr
+        sides = arr.shape[1:3]
+    else:
+        if arr.ndim == 3 and arr.shape[-1] == 1:
+            arr = arr[..., 0]
+        if arr.ndim not in (2, 3) or (arr.ndim == 3 and arr.shape[-1] != 3):
+            raise ValueError(
+                f"`image` must have shape (H, W), (H, W, 1) or (H, W, 3), got {arr.shape}"
+            )
+        sides = arr.shape[:2]
+    if min(sides) < 1 or max(sides) > 65535:
         raise ValueError(f"`image` must be 1..65535 pixels on each side, got {arr.shape}")
     return to_uint8(arr, "image")
 
@@ -169,8 +197,9 @@ def _dht(table_class: int, table_id: int, spec) -> bytes:
     return _segment(0xC4, bytes([table_class << 4 | table_id, *bits, *values]))
 
 
-def encode(image, *, quality: int = 75, subsampling: str = "4:2:0") -> bytes:
-    """Encode an image as a baseline JFIF file, exactly as libjpeg-turbo does.
+def encode(image, *, quality: int = 75, subsampling: str = "4:2:0") -> bytes | list[bytes]:
+    """Encode an image (or a stack of images) as baseline JFIF files, exactly as
+    libjpeg-turbo does.
 
     The markers, tables, quantized coefficients and entropy-coded data are those of
     Pillow's `Image.save(buf, "JPEG", quality=quality, subsampling=...)` (Pillow's
@@ -180,25 +209,58 @@ def encode(image, *, quality: int = 75, subsampling: str = "4:2:0") -> bytes:
     an image size compiles them (about half a second on a laptop CPU), later calls of
     that size, at any quality, reuse them. Smaller images run in NumPy.
 
+    A stack `(B, H, W, 3)` (RGB) or `(B, H, W, 1)` (grey) is encoded as a batch: one
+    validation and conversion of the whole stack, one set of headers, and a pipeline
+    in which the compiled programs of the next image run while NumPy packs the bits
+    of the current one. Each file is the same as `encode` of that image alone.
+
     **Arguments:**
 
     - `image`: `(H, W, 3)` RGB or `(H, W)` / `(H, W, 1)` grey; uint8, or float in
-      [0, 1] (rounded to uint8 first).
+      [0, 1] (rounded to uint8 first); or a stack of them as above.
     - `quality`: IJG quality, an int in 1..100.
     - `subsampling`: chroma subsampling `"4:4:4"`, `"4:2:2"` or `"4:2:0"`. For a grey
       image only the frame header's sampling factors change (as Pillow writes them).
 
     **Returns:**
 
-    The file's bytes.
+    The file's bytes; for a stack, a list of `B` files.
     """
-    arr = _as_uint8(image)
+    batch = np.ndim(image) == 4 if image is not None and not is_traced(image) else False
+    arr = _as_uint8(image, batch=batch)
     quality = _check_quality(quality)
     luma_factors = _check_subsampling(subsampling)
+    if batch:
+        return _encode_batch(arr, quality, luma_factors)
     height, width = arr.shape[:2]
     factors = (luma_factors,) if arr.ndim == 2 else (luma_factors, (1, 1), (1, 1))
     scan = _scan(arr, quality, E.layout(height, width, factors))
     return _headers(height, width, quality, factors) + scan + b"\xff\xd9"
+
+
+def _encode_batch(arr: np.ndarray, quality: int, luma_factors) -> list[bytes]:
+    """`encode` of each image of a uint8 stack `(B, H, W[, 3])`, pipelined: the compiled
+    programs of image k + 1 are dispatched (XLA runs them asynchronously, on its own
+    threads) before NumPy packs the bits of image k."""
+    count, height, width = arr.shape[:3]
+    factors = (luma_factors,) if arr.ndim == 3 else (luma_factors, (1, 1), (1, 1))
+    lay = E.layout(height, width, factors)
+    head = _headers(height, width, quality, factors)
+    if height * width < _COMPILE_FROM_PIXELS:  # NumPy: nothing to overlap
+        return [head + _scan(image, quality, lay, compiled=False) + b"\xff\xd9" for image in arr]
+    plan = E.band_plan(height, width, tuple(c.factors for c in lay.components))
+    programs = [(E.compiled_band_events(band), row) for row, band in plan]
+    divisors = _device_divisors(quality, len(lay.components))
+
+    def dispatch(k):
+        padded = _aligned(E.pad_input(arr[k], lay))
+        return [program(padded, divisors, row) for program, row in programs]
+
+    files, pending = [], dispatch(0)
+    for k in range(count):
+        current, pending = pending, dispatch(k + 1) if k + 1 < count else None
+        files.append(head + E.pack_bands(current, plan) + b"\xff\xd9")
+    return files
 
 
 @functools.lru_cache(maxsize=256)

@@ -17,7 +17,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from gfxlab._checks import check_shape, finite_float, value_error_if
+from gfxlab._checks import check_range, check_shape, finite_float, value_error_if
 from gfxlab.jpeg import _libjpeg as L
 from gfxlab.jpeg import stages as S
 from gfxlab.jpeg._tables import SUBSAMPLING, ijg_tables
@@ -26,17 +26,19 @@ __all__ = ["compress", "exact_tables"]
 
 
 def exact_tables(quality) -> tuple[Array, Array]:
-    """IJG integer tables for a possibly traced quality (rounded, clipped to 1..100).
+    """IJG integer tables for a possibly traced quality (rounded to an integer).
 
     **Arguments:**
 
-    - `quality`: scalar (may be traced, e.g. a fitted parameter).
+    - `quality`: scalar in [1, 100] (may be traced, e.g. a fitted parameter; outside
+      the range a `ValueError`, eagerly and under `jax.jit`).
 
     **Returns:**
 
     `(luminance, chrominance)` int32 `(8, 8)` tables, equal to `quant_tables`.
     """
-    q = jnp.clip(jnp.round(finite_float(quality, "quality")), 1, 100).astype(jnp.int32)
+    q = check_range(finite_float(quality, "quality"), "quality", minimum=1.0, maximum=100.0)
+    q = jnp.clip(jnp.round(q), 1, 100).astype(jnp.int32)
     return ijg_tables(q, jnp)
 
 
@@ -123,6 +125,8 @@ def compress(
         ]
     if image.ndim not in (2, 3) or (image.ndim == 3 and image.shape[-1] != 3):
         raise ValueError(f"`image` must have shape (H, W) or (H, W, 3), got {image.shape}")
+    if 0 in image.shape[:2]:
+        raise ValueError(f"`image` must not be empty, got shape {image.shape}")
     if subsampling not in SUBSAMPLING:
         raise ValueError(f"`subsampling` must be one of {sorted(SUBSAMPLING)}, got {subsampling!r}")
     if rounding not in ("deadzone", "ste", "cubic"):
@@ -130,7 +134,7 @@ def compress(
     quality = finite_float(quality, "quality")
     if quality.ndim != 0:
         raise ValueError(f"`quality` must be a scalar, got shape {quality.shape}")
-    quality = quality.astype(image.dtype)
+    quality = check_range(quality, "quality", minimum=1.0, maximum=100.0).astype(image.dtype)
     factors = ((1, 1),) if image.ndim == 2 else (SUBSAMPLING[subsampling], (1, 1), (1, 1))
     return _compress(image, quality, factors, rounding)
 
@@ -155,9 +159,9 @@ def psnr(a, b, *, peak: float = 1.0) -> Array:
     Scalar PSNR (inf for identical images).
     """
     a, b = finite_float(a, "a"), finite_float(b, "b")
-    check_shape(b, "b", a.shape)
     if a.size == 0:
-        raise ValueError("`a` and `b` must not be empty")
+        raise ValueError(f"`a` must not be empty, got shape {a.shape}")
+    check_shape(b, "b", a.shape)
     peak = finite_float(peak, "peak")
     check_shape(peak, "peak", ())
     peak = value_error_if(peak, peak <= 0, "`peak` must be positive (the largest value)")

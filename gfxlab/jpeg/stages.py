@@ -27,8 +27,10 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from gfxlab._checks import (
+    check_allocation,
     check_finite,
     check_last_dim,
+    check_range,
     finite_float,
     static_int,
     static_shape,
@@ -174,7 +176,8 @@ def upsample(
 
     **Arguments:**
 
-    - `chroma`: `(..., h, w)` subsampled plane.
+    - `chroma`: `(..., h, w)` subsampled plane, `h = ceil(H / v)`, `w = ceil(W / h)`
+      (what `subsample` returns for `shape`).
     - `shape`: the full `(H, W)`.
     - `subsampling`: as in `subsample`.
     - `method`: `"fancy"` or `"nearest"`.
@@ -188,6 +191,12 @@ def upsample(
     h, v = _factors(subsampling)
     if method not in ("fancy", "nearest"):
         raise ValueError(f"`method` must be 'fancy' or 'nearest', got {method!r}")
+    expected = (-(-rows // v), -(-cols // h))
+    if tuple(x.shape[-2:]) != expected:
+        raise ValueError(
+            f"`chroma` must have shape (..., {expected[0]}, {expected[1]}) to upsample to "
+            f"`shape` {(rows, cols)} with {subsampling}, got shape {tuple(x.shape)}"
+        )
     if method == "nearest" or (h == 2 and x.shape[-1] <= 2):
         x = jnp.repeat(jnp.repeat(x, v, axis=-2), h, axis=-1)
     else:
@@ -204,21 +213,27 @@ def upsample(
     return _pad_edge(x, max(rows, x.shape[-2]), max(cols, x.shape[-1]))[..., :rows, :cols]
 
 
+#: Largest block size `blocks` accepts (JPEG uses 8).
+MAX_BLOCK_SIZE = 1024
+
+
 def blocks(plane: Float[Array, "*batch H W"], *, size: int = 8) -> Array:
     """Cut a plane into `size x size` blocks, repeating edge pixels to fill the last.
 
     **Arguments:**
 
     - `plane`: `(..., H, W)`.
-    - `size`: block size (8 in JPEG).
+    - `size`: block size (8 in JPEG), at most `MAX_BLOCK_SIZE` (1024).
 
     **Returns:**
 
     `(..., ceil(H / size), ceil(W / size), size, size)`.
     """
     x = _plane(plane, "plane")
-    size = static_int(size, "size", minimum=1)
+    size = static_int(size, "size", minimum=1, maximum=MAX_BLOCK_SIZE)
     rows, cols = x.shape[-2:]
+    batch = int(np.prod(x.shape[:-2]))
+    check_allocation(batch * -(-rows // size) * size * -(-cols // size) * size, "size")
     x = _pad_edge(x, -(-rows // size) * size, -(-cols // size) * size)
     r, c = x.shape[-2] // size, x.shape[-1] // size
     return jnp.swapaxes(x.reshape(*x.shape[:-2], r, size, c, size), -3, -2)
@@ -345,19 +360,21 @@ def quant_tables_continuous(quality) -> tuple[Array, Array]:
     IJG's integer scale factor (`5000 // q` or `200 - 2 q`) is interpolated linearly
     between integer qualities, and the entries are `base * scale / 100` clipped to
     [1, 255] without the final integer rounding: within 0.5 of `quant_tables` at
-    integer qualities. Finite gradients everywhere (quality is clipped to [1, 100]).
+    integer qualities. Finite gradients on all of [1, 100].
 
     **Arguments:**
 
-    - `quality`: scalar, may be traced.
+    - `quality`: scalar in [1, 100], may be traced (outside: a `ValueError`, eagerly
+      and under `jax.jit`).
 
     **Returns:**
 
     `(luminance, chrominance)` float `(8, 8)` tables.
     """
-    q = jnp.clip(finite_float(quality, "quality"), 1.0, 100.0)
+    q = finite_float(quality, "quality")
     if q.ndim != 0:
         raise ValueError(f"`quality` must be a scalar, got shape {q.shape}")
+    q = check_range(q, "quality", minimum=1.0, maximum=100.0)
     scales = jnp.asarray(_SCALES, q.dtype)
     low = jnp.clip(jnp.floor(q), 1, 99)
     frac = q - low
@@ -491,8 +508,12 @@ def _integer(value, name: str) -> int:
 
 
 def category(value: int) -> int:
-    """JPEG magnitude category (SSSS): the bit length of `|value|`."""
-    return abs(_integer(value, "value")).bit_length()
+    """JPEG magnitude category (SSSS): the bit length of `|value|`, for an integer
+    `value` in -32767..32767 (16-bit coefficients and differences: categories 0..15)."""
+    number = _integer(value, "value")
+    if abs(number) > 32767:
+        raise ValueError(f"`value` must be in -32767..32767 (categories 0..15), got {number}")
+    return abs(number).bit_length()
 
 
 def _integers(x, name: str, size: int) -> np.ndarray:

@@ -1,7 +1,9 @@
 """Benchmarks for gfxlab.jpeg against Pillow (libjpeg-turbo).
 
-- `encode` of a 512 x 512 RGB photograph-like image at quality 75, and the fraction of
-  byte-identical files over a set of images, qualities and subsamplings;
+- `encode` of a 512 x 512 RGB photograph-like image at quality 75 (the eager call a
+  user makes), a batched `encode` of 32 such images against Pillow encoding them one
+  by one, and the fraction of byte-identical files over a set of images, qualities
+  and subsamplings;
 - `decode` of Pillow files (512 x 512 RGB q75 4:2:0, and a 512 x 512 q95 4:4:4 photo
   with film grain, ~600 KB) against Pillow, and its peak memory above input + output;
 - `compress` (differentiable round trip) against Pillow's real round trip: PSNR over
@@ -93,6 +95,29 @@ def _decode_rows(table: Table, photo: np.ndarray) -> None:
         )
 
 
+def _batch_row(table: Table, count: int = 32) -> None:
+    """Batched `encode` of `count` 512 x 512 RGB images against Pillow encoding them one
+    after the other (the ratio is the throughput ratio)."""
+    stack = np.stack([_scene(512, 512, seed) for seed in range(count)])
+    start = time.perf_counter()
+    files = jpeg.encode(stack, quality=75)
+    first = time.perf_counter() - start
+    same = all(f == _pillow(img, 75) for f, img in zip(files, stack, strict=True))
+    ours, theirs = timeit_pair(
+        lambda: jpeg.encode(stack, quality=75),
+        lambda: [_pillow(img, 75) for img in stack],
+        repeat=5,
+        warmup=1,
+    )
+    table.add(
+        f"encode batch of {count} 512x512 RGB q=75 vs Pillow serial",
+        ours,
+        theirs,
+        f"ratio = throughput ratio; {count / ours:.0f} images/s; every file byte-identical: "
+        f"{same}; first call {first:.2f} s",
+    )
+
+
 def _kornia_row(table: Table, photo: np.ndarray) -> None:
     """`compress` against Kornia's differentiable JPEG (only with torch + kornia)."""
     try:
@@ -135,6 +160,7 @@ def main() -> None:
         *timeit_pair(lambda: jpeg.encode(photo, quality=75), lambda: _pillow(photo, 75)),
         f"byte-identical: {data == _pillow(photo, 75)}; first call (compiles) {first:.2f} s",
     )
+    _batch_row(table)
     grey = photo[..., 1].copy()
     table.add(
         "encode 512x512 grey q=75",
