@@ -11,12 +11,13 @@ from __future__ import annotations
 import functools
 from collections.abc import Sequence
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Shaped
 
-from .._checks import is_traced, static_int
+from .._checks import checked_jit, is_traced, static_int
 from ..raster._args import array_arg, finite_arg, float_dtype, float_scalar, range_check
 from .networks import (
     MAX_NETWORK_SIZE,
@@ -75,6 +76,22 @@ def _check_mode(mode) -> str:
     if not isinstance(mode, str) or mode not in MODES:
         raise ValueError(f"`mode` must be one of {MODES}, got {mode!r}")
     return mode
+
+
+def guard_finite(x, checked, name: str):
+    """Inside a jitted function: `x` after checking that `checked` (a float array) holds
+    no NaN or inf (`equinox.error_if`; `checked_jit` turns it into `ValueError` eagerly)."""
+    if not jnp.issubdtype(jnp.result_type(checked), jnp.floating):
+        return x
+    return eqx.error_if(
+        x, ~jnp.all(jnp.isfinite(checked)), f"`{name}` must be finite (no NaN or inf)"
+    )
+
+
+def _guard_image(image, cval):
+    """The value checks of every filter, run inside its one compiled call."""
+    image = guard_finite(image, image, "image")
+    return guard_finite(image, cval, "cval")
 
 
 def _window_size(size, maximum: int) -> tuple[int, int]:
@@ -247,8 +264,9 @@ def median_filter(
     return _median_filter(image, cval, footprint=key, mode=mode)
 
 
-@functools.partial(jax.jit, static_argnames=("footprint", "mode"))
+@functools.partial(checked_jit, static_argnames=("footprint", "mode"))
 def _median_filter(image, cval, *, footprint, mode):
+    image = _guard_image(image, cval)
     footprint = np.array(footprint, dtype=bool)
     ranks = _middle_ranks(int(footprint.sum()))
     # Channels first, so that shifted views run along contiguous rows.
@@ -303,8 +321,9 @@ def mean_filter(
     return _mean_filter(image, cval, size=(kh, kw), mode=mode)
 
 
-@functools.partial(jax.jit, static_argnames=("size", "mode"))
+@functools.partial(checked_jit, static_argnames=("size", "mode"))
 def _mean_filter(image, cval, *, size, mode):
+    image = _guard_image(image, cval)
     image = image.astype(float_dtype(image))
     kh, kw = size
     kernels = ([1.0 / kh] * kh, [1.0 / kw] * kw)
@@ -380,8 +399,9 @@ def _check_sigma(sigma):
     return range_check(finite_arg(arr, "sigma"), "sigma", low=0)
 
 
-@functools.partial(jax.jit, static_argnames=("radii", "mode"))
+@functools.partial(checked_jit, static_argnames=("radii", "mode"))
 def _gaussian_filter(image, sigma, cval, *, radii, mode):
+    image = _guard_image(image, cval)
     image = image.astype(float_dtype(image))
     sigma = jnp.broadcast_to(jnp.asarray(sigma).astype(image.dtype), (2,))
     kernels = []

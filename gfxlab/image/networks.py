@@ -6,11 +6,12 @@ from __future__ import annotations
 import functools
 from collections.abc import Sequence
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Shaped
 
-from .._checks import static_int
+from .._checks import checked_jit, static_int
 from ..raster._args import array_arg
 
 __all__ = ["MAX_NETWORK_SIZE", "selection_network", "median", "median_of_sum"]
@@ -133,10 +134,22 @@ def median(values: Shaped[Array, "*batch n"], *, axis: int = -1) -> Shaped[Array
     if n == 0:
         raise ValueError("`values` must be non-empty along `axis`")
     static_int(n, "values.shape[axis]", maximum=MAX_NETWORK_SIZE)
-    return _median(values, axis=axis)
+    return _checked_median(values, axis=axis)
 
 
-@jax.jit(static_argnames="axis")
+def _guard_finite(x, name: str):
+    """`x` after an `equinox.error_if` check that a float `x` holds no NaN or inf."""
+    if not jnp.issubdtype(x.dtype, jnp.floating):
+        return x
+    return eqx.error_if(x, ~jnp.all(jnp.isfinite(x)), f"`{name}` must be finite (no NaN or inf)")
+
+
+@functools.partial(checked_jit, static_argnames="axis")
+def _checked_median(values, *, axis):
+    return _median(_guard_finite(values, "values"), axis=axis)
+
+
+@functools.partial(jax.jit, static_argnames="axis")
 def _median(values, *, axis):
     values = jnp.moveaxis(values, axis, -1)
     n = values.shape[-1]
@@ -168,6 +181,7 @@ def median_of_sum(x, y) -> tuple[jax.Array, jax.Array]:
     return _median_of_sum(x, y)
 
 
-@jax.jit
+@checked_jit
 def _median_of_sum(x, y):
+    x, y = _guard_finite(x, "x"), _guard_finite(y, "y")
     return _median(x + y, axis=-1), _median(x, axis=-1) + _median(y, axis=-1)

@@ -18,6 +18,7 @@ from .._checks import check_shape, static_int
 
 __all__ = [
     "MAX_CIRCLE_RADIUS",
+    "MAX_CENTER_COORDINATE",
     "midpoint_circle",
     "midpoint_circle_steps",
     "midpoint_circle_trace",
@@ -31,6 +32,9 @@ __all__ = [
 MAX_CIRCLE_RADIUS = 16383
 #: Largest semi-axis of `midpoint_ellipse`: its exact integer tests use `4 rx^2 ry^2 < 2^31`.
 MAX_ELLIPSE_RADIUS = 128
+#: Largest `|x|` or `|y|` of a circle's or ellipse's integer centre (a documented limit:
+#: centre plus radius stays an int32).
+MAX_CENTER_COORDINATE = 2**30
 
 _INT = jnp.int32
 
@@ -83,6 +87,13 @@ def _check_center(center):
     if not jnp.issubdtype(center.dtype, jnp.integer):
         raise TypeError(
             f"`center` must be integer pixel coordinates (x, y), got dtype {center.dtype}"
+        )
+    if not isinstance(center, jax.core.Tracer) and np.any(
+        np.abs(np.asarray(center, dtype=object)) > MAX_CENTER_COORDINATE
+    ):
+        raise ValueError(
+            f"`center` must have |x|, |y| <= {MAX_CENTER_COORDINATE} (a documented limit: the "
+            f"pixels are int32), got {np.asarray(center).tolist()}"
         )
     return center
 
@@ -137,7 +148,8 @@ def midpoint_circle(radius: int, *, center: tuple[int, int] = (0, 0)) -> Int[Arr
     **Arguments:**
 
     - `radius`: the radius, a static int in `[0, MAX_CIRCLE_RADIUS]`.
-    - `center`: integer centre `(x, y)`; may be a traced integer array.
+    - `center`: integer centre `(x, y)` (`|x|, |y| <= MAX_CENTER_COORDINATE`); may be
+      a traced integer array.
 
     **Returns:** int32 `(N, 2)` unique pixel positions `(x, y)` in clockwise order,
     starting just right of the top pixel `(xc, yc + r)` and ending on it (for `r = 0`
@@ -332,7 +344,8 @@ def midpoint_ellipse(rx: int, ry: int, *, center: tuple[int, int] = (0, 0)) -> I
     **Arguments:**
 
     - `rx`, `ry`: semi-axes, static ints in `[1, MAX_ELLIPSE_RADIUS]`.
-    - `center`: integer centre `(x, y)`; may be a traced integer array.
+    - `center`: integer centre `(x, y)` (`|x|, |y| <= MAX_CENTER_COORDINATE`); may be
+      a traced integer array.
 
     **Returns:** int32 `(N, 2)` unique pixel positions `(x, y)` in clockwise order.
     """
