@@ -118,7 +118,7 @@ BASELINES |= {  # the hidden-surface methods and shading
     "render.PointLight": {"position": [0.0, 0.0, 5.0]},
     "render.DirectionalLight": {"direction": [0.0, 0.0, 1.0]},
     "render.screen_scene": {"mesh": _mesh.cube(), "camera": _view.Camera([2.0, 1.5, 3.0])},
-    "render.VisibilityResult": {"counters": {}},
+    "render.VisibilityResult": {"counters": {}, "depth": None},  # None: no depth buffer
     "render.quadtree_cells": {"quadtree": ([[5]], [[1, 1], [1, 1]])},
 }  # fmt: skip
 # -- curves

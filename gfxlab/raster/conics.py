@@ -9,6 +9,8 @@ hundreds of radii at once. A circle's centre may be traced.
 
 from __future__ import annotations
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -89,7 +91,7 @@ def _check_center(center):
             f"`center` must be integer pixel coordinates (x, y), got dtype {center.dtype}"
         )
     if not isinstance(center, jax.core.Tracer) and np.any(
-        np.abs(np.asarray(center, dtype=object)) > MAX_CENTER_COORDINATE
+        np.abs(np.asarray(center).astype(np.int64)) > MAX_CENTER_COORDINATE
     ):
         raise ValueError(
             f"`center` must have |x|, |y| <= {MAX_CENTER_COORDINATE} (a documented limit: the "
@@ -137,6 +139,15 @@ def _circle_from_octant(octant: np.ndarray, radius: int, center: jax.Array) -> j
     return _offset(loop, center)
 
 
+@functools.lru_cache(maxsize=64)
+def _circle_loop(radius: int) -> np.ndarray:
+    """The pixels of the midpoint circle of `radius` about the origin (cached, read-only)."""
+    loop = _circle_from_octant(_static_circle_octant(radius), radius, np.zeros(2, np.int64))
+    loop = np.asarray(loop)
+    loop.flags.writeable = False
+    return loop
+
+
 def midpoint_circle(radius: int, *, center: tuple[int, int] = (0, 0)) -> Int[Array, "N 2"]:
     """The pixels of a circle by the midpoint circle algorithm, vectorized.
 
@@ -159,7 +170,7 @@ def midpoint_circle(radius: int, *, center: tuple[int, int] = (0, 0)) -> Int[Arr
     radius = _check_radius(radius, "radius", MAX_CIRCLE_RADIUS)
     center = _check_center(center)
     # The pixels depend only on static ints: a constant of the trace, computed in NumPy.
-    return _circle_from_octant(_static_circle_octant(radius), radius, center)
+    return _offset(_circle_loop(radius), center)
 
 
 @jax.jit(static_argnames="length")  # compiled once per length

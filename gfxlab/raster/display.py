@@ -3,6 +3,8 @@ phosphor's persistence."""
 
 from __future__ import annotations
 
+import functools
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -97,6 +99,13 @@ def raster_scan(
     height, width = frame_buffer.shape
     h_retrace = static_int(h_retrace, "h_retrace", minimum=1, maximum=MAX_BEAM_STEPS)
     v_retrace = static_int(v_retrace, "v_retrace", minimum=1, maximum=MAX_BEAM_STEPS)
+    positions, on, flat = _raster_layout(height, width, bool(interlaced), h_retrace, v_retrace)
+    return _raster_beam(frame_buffer, positions, on, flat)
+
+
+@functools.lru_cache(maxsize=32)
+def _raster_layout(height: int, width: int, interlaced: bool, h_retrace: int, v_retrace: int):
+    """The beam's static path (positions, on, pixel index per step) in NumPy, cached."""
     if interlaced:
         fields = [np.arange(0, height, 2), np.arange(1, height, 2)]
     else:
@@ -132,7 +141,10 @@ def raster_scan(
         cols_all += [block_cols, np.zeros(v_retrace, int)]
     on = np.concatenate(on_all)
     flat = np.concatenate(rows_all) * width + np.concatenate(cols_all)
-    return _raster_beam(frame_buffer, np.concatenate(pos_all), on, flat)
+    positions = np.concatenate(pos_all)
+    for arr in (positions, on, flat):
+        arr.flags.writeable = False
+    return positions, on, flat
 
 
 @jax.jit

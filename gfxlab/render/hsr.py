@@ -73,6 +73,8 @@ class VisibilityResult(eqx.Module):
     ):
         image = as_float(image, "image")
         check_shape(image, "image", (None, None, None))
+        if not 1 <= image.shape[2] <= 4:
+            raise ValueError(f"`image` must have 1 to 4 channels, got shape {tuple(image.shape)}")
         self.image = check_finite(image, "image")
         if depth is not None:
             depth = as_float(depth, "depth")
