@@ -224,3 +224,8 @@ def test_beam_path_types_and_traced_checks():
         jax.block_until_ready(jax.jit(raster.inside_polygon)(jnp.full((1, 2), np.nan), SQUARE))
     beam = raster.random_scan(jnp.array([[[0.0, 0.0], [3.0, 2.0]]]))  # built under jit
     assert isinstance(beam, raster.BeamPath) and beam.positions.shape[0] == beam.on.shape[0]
+
+
+def test_points_to_image_rejects_non_numbers():
+    with pytest.raises(TypeError, match="points"):
+        raster.points_to_image("abc", (4, 4))

@@ -177,6 +177,9 @@ def test_nan_scenes_are_errors_eagerly_and_under_jit():
             call = dict(triangles=triangles, colors=colors, background=0.0) | kwargs
             with pytest.raises(ValueError, match=name):
                 method(call["triangles"], call["colors"], (8, 8), background=call["background"])
+    with pytest.raises(ValueError, match="triangles"):  # counts differ: both are named
+        R.zbuffer(triangles[:0], colors, (8, 8))
+    assert R.zbuffer(triangles[:0], colors[:0], (8, 8)).image.shape == (8, 8, 3)
     jitted = jax.jit(lambda t: R.zbuffer(t, colors, (8, 8)).image)
     with pytest.raises((ValueError, RuntimeError), match="triangles"):
         jax.block_until_ready(jitted(nan_triangles))

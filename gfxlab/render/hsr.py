@@ -108,6 +108,11 @@ def _check_scene(triangles, colors, shape, background):
     height, width = static_shape(shape)
     triangles, colors = common_float(triangles, colors, names=("triangles", "colors"))
     check_shape(triangles, "triangles", (None, 3, 3))
+    if colors.ndim == 2 and colors.shape[0] != triangles.shape[0]:
+        raise ValueError(
+            f"`colors` must hold one colour per triangle of `triangles`: {triangles.shape[0]} "
+            f"triangles, got colors of shape {tuple(colors.shape)}"
+        )
     colors = check_colors(colors, triangles.shape[0], per="triangle")
     if not 1 <= colors.shape[1] <= 4:
         raise ValueError(
