@@ -11,7 +11,6 @@ from __future__ import annotations
 import functools
 from collections.abc import Sequence
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -25,6 +24,7 @@ from .networks import (
     _middle_ranks,
     _run_network,
     _selection_network,
+    guard_finite,
 )
 
 __all__ = [
@@ -78,20 +78,10 @@ def _check_mode(mode) -> str:
     return mode
 
 
-def guard_finite(x, checked, name: str):
-    """Inside a jitted function: `x` after checking that `checked` (a float array) holds
-    no NaN or inf (`equinox.error_if`; `checked_jit` turns it into `ValueError` eagerly)."""
-    if not jnp.issubdtype(jnp.result_type(checked), jnp.floating):
-        return x
-    return eqx.error_if(
-        x, ~jnp.all(jnp.isfinite(checked)), f"`{name}` must be finite (no NaN or inf)"
-    )
-
-
-def _guard_image(image, cval):
-    """The value checks of every filter, run inside its one compiled call."""
-    image = guard_finite(image, image, "image")
-    return guard_finite(image, cval, "cval")
+def _guard_image(out, image, cval):
+    """`out` after the value checks of every filter on its `image` and `cval`, run inside
+    the filter's one compiled call (attached to the result, the last operation)."""
+    return guard_finite(guard_finite(out, image, "image"), cval, "cval")
 
 
 def _window_size(size, maximum: int) -> tuple[int, int]:
@@ -266,7 +256,6 @@ def median_filter(
 
 @functools.partial(checked_jit, static_argnames=("footprint", "mode"))
 def _median_filter(image, cval, *, footprint, mode):
-    image = _guard_image(image, cval)
     footprint = np.array(footprint, dtype=bool)
     ranks = _middle_ranks(int(footprint.sum()))
     # Channels first, so that shifted views run along contiguous rows.
@@ -275,7 +264,7 @@ def _median_filter(image, cval, *, footprint, mode):
     values = _window_ranks(padded, image.shape[:2], footprint, ranks)
     if image.ndim == 3:
         values = [jnp.moveaxis(v, 0, -1) for v in values]
-    return _combine_middle(values, image.dtype)
+    return _guard_image(_combine_middle(values, image.dtype), image, cval)
 
 
 def _correlate_separable(padded, shape_hw, kernels):
@@ -323,14 +312,15 @@ def mean_filter(
 
 @functools.partial(checked_jit, static_argnames=("size", "mode"))
 def _mean_filter(image, cval, *, size, mode):
-    image = _guard_image(image, cval)
+    source = image
     image = image.astype(float_dtype(image))
     kh, kw = size
     kernels = ([1.0 / kh] * kh, [1.0 / kw] * kw)
-    return _on_planes(
+    out = _on_planes(
         lambda x: _correlate_separable(_pad(x, (kh, kw), mode, cval), image.shape[:2], kernels),
         image,
     )
+    return _guard_image(out, source, cval)
 
 
 def gaussian_filter(
@@ -401,7 +391,7 @@ def _check_sigma(sigma):
 
 @functools.partial(checked_jit, static_argnames=("radii", "mode"))
 def _gaussian_filter(image, sigma, cval, *, radii, mode):
-    image = _guard_image(image, cval)
+    source = image
     image = image.astype(float_dtype(image))
     sigma = jnp.broadcast_to(jnp.asarray(sigma).astype(image.dtype), (2,))
     kernels = []
@@ -410,7 +400,8 @@ def _gaussian_filter(image, sigma, cval, *, radii, mode):
         w = jnp.exp(-0.5 * (x / sigma[axis]) ** 2)
         kernels.append(list(w / jnp.sum(w)))
     window = (2 * radii[0] + 1, 2 * radii[1] + 1)
-    return _on_planes(
+    out = _on_planes(
         lambda x: _correlate_separable(_pad(x, window, mode, cval), image.shape[:2], kernels),
         image,
     )
+    return _guard_image(out, source, cval)

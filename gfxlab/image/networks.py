@@ -137,16 +137,25 @@ def median(values: Shaped[Array, "*batch n"], *, axis: int = -1) -> Shaped[Array
     return _checked_median(values, axis=axis)
 
 
-def _guard_finite(x, name: str):
-    """`x` after an `equinox.error_if` check that a float `x` holds no NaN or inf."""
-    if not jnp.issubdtype(x.dtype, jnp.floating):
+def guard_finite(x, checked, name: str):
+    """Inside a jitted function: `x` after checking that `checked` (a float array) holds
+    no NaN or inf (`equinox.error_if`; `checked_jit` turns it into `ValueError` eagerly).
+
+    The error is attached to a scalar `1` that multiplies `x` (exact), so the check
+    costs one fused reduction, not a copy of `x` through a conditional."""
+    if not jnp.issubdtype(jnp.result_type(checked), jnp.floating):
         return x
-    return eqx.error_if(x, ~jnp.all(jnp.isfinite(x)), f"`{name}` must be finite (no NaN or inf)")
+    one = eqx.error_if(
+        jnp.ones((), x.dtype),
+        ~jnp.all(jnp.isfinite(checked)),
+        f"`{name}` must be finite (no NaN or inf)",
+    )
+    return x * one
 
 
 @functools.partial(checked_jit, static_argnames="axis")
 def _checked_median(values, *, axis):
-    return _median(_guard_finite(values, "values"), axis=axis)
+    return guard_finite(_median(values, axis=axis), values, "values")
 
 
 @functools.partial(jax.jit, static_argnames="axis")
@@ -183,5 +192,5 @@ def median_of_sum(x, y) -> tuple[jax.Array, jax.Array]:
 
 @checked_jit
 def _median_of_sum(x, y):
-    x, y = _guard_finite(x, "x"), _guard_finite(y, "y")
-    return _median(x + y, axis=-1), _median(x, axis=-1) + _median(y, axis=-1)
+    both = _median(x + y, axis=-1), _median(x, axis=-1) + _median(y, axis=-1)
+    return tuple(guard_finite(guard_finite(v, x, "x"), y, "y") for v in both)

@@ -10,7 +10,8 @@ from jaxtyping import Array, Float
 from .._checks import checked_jit
 from .._pixels import checked_shape
 from ..raster._args import float_dtype, float_scalar
-from .filters import _check_filter_image, guard_finite
+from .filters import _check_filter_image
+from .networks import guard_finite
 from .noise import DEFAULT_KEY, _value, check_key
 
 __all__ = ["add_salt_and_pepper", "synthetic_scene"]
