@@ -112,12 +112,39 @@ for _name in ("cohen_sutherland", "cohen_sutherland_steps", "liang_barsky"):
 BASELINES |= {}
 # -- render
 BASELINES |= {}
+_R, _mesh, _view = (importlib.import_module(f"gfxlab.{_m}") for _m in ("render", "mesh", "viewing"))
+BASELINES |= {  # the hidden-surface methods and shading
+    "render.shade": {"lights": _R.PointLight([0.0, 0.0, 5.0])},
+    "render.PointLight": {"position": [0.0, 0.0, 5.0]},
+    "render.DirectionalLight": {"direction": [0.0, 0.0, 1.0]},
+    "render.screen_scene": {"mesh": _mesh.cube(), "camera": _view.Camera([2.0, 1.5, 3.0])},
+    "render.VisibilityResult": {"counters": {}, "depth": None},  # None: no depth buffer
+    "render.quadtree_cells": {"quadtree": ([[5]], [[1, 1], [1, 1]])},
+}  # fmt: skip
 # -- curves
 BASELINES |= {}
 # -- brdf, color
 BASELINES |= {}
 # -- image, jpeg, raster
+_gi, _gr = (importlib.import_module(f"gfxlab.{_m}") for _m in ("image", "raster"))
+_triangle = [[0.0, 0.0], [4.0, 0.0], [0.0, 4.0]]
 BASELINES |= {
+    "image.Polygon": {"vertices": _triangle, "fill": None},
+    "image.Polyline": {"vertices": _triangle},
+    "image.Circle": {"center": [2.0, 2.0], "radius": 1.5, "fill": None},
+    "image.write_svg": {"path": "/tmp/gfxlab-contract.svg", "shapes": (_gi.Polygon(_triangle),),
+                        "background": None},
+    "image.rasterize_shapes": {"shapes": (_gi.Polygon(_triangle),)},
+    "image.selection_network": {"ranks": (1, 2)},
+    "image.median": {"values": [[1.0, 5.0, 2.0, 4.0, 3.0]]},
+    "image.median_of_sum": {"x": [1.0, 5.0, 2.0], "y": [4.0, 0.0, 0.0]},
+    "image.value_noise": {"x": [[0.5, 0.25]]},
+    "image.gradient_noise": {"x": [[0.5, 0.25]]},
+    "image.fractal_noise": {"x": [[0.5, 0.25]]},
+    "raster.supersample": {"fn": lambda p: p[..., 0] > 1.0},
+    "raster.BeamPath": {"positions": [[0.0, 0.0], [1.0, 0.0]], "intensity": [0.5, 1.0],
+                        "on": [True, True]},
+    "raster.phosphor_frames": {"beam": _gr.BeamPath([[0.0, 0.0]], [1.0], [True])},
     # jpeg: an 8 x 8 RGB image in [0, 1], an 8 x 8 block and table, and the smallest
     # valid baseline JPEG (8 x 8 grey, one-code Huffman tables, all zero).
     "jpeg.coefficients": {"image": (_JPEG_RGB := [

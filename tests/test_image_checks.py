@@ -2,6 +2,7 @@
 ImageFileError, constructors that validate, and eager == jit."""
 
 import io
+import logging
 
 import jax
 import jax.numpy as jnp
@@ -38,8 +39,8 @@ RUNTIME = (ValueError, RuntimeError)  # a check firing inside jit (equinox.error
         (lambda: gi.add_salt_and_pepper(None, key=jax.random.key(0)), "image"),
         (lambda: gi.value_noise(None), "x"),
         (lambda: gi.fractal_noise(None), "x"),
-        (lambda: gi.Polygon(None), "points"),
-        (lambda: gi.Polyline(None), "points"),
+        (lambda: gi.Polygon(None), "vertices"),
+        (lambda: gi.Polyline(None), "vertices"),
         (lambda: gi.Circle(None, 1.0), "center"),
         (lambda: gi.Circle(jnp.zeros(2), None), "radius"),
         (lambda: gi.Circle(jnp.zeros(2), "abc"), "radius"),
@@ -64,7 +65,7 @@ def test_none_and_wrong_types_are_type_errors_naming_the_argument(call, name):
         (lambda: gi.Circle(jnp.zeros(3), 1.0), "center"),
         (lambda: gi.Circle(jnp.zeros(2), jnp.ones(2)), "radius"),
         (lambda: gi.Circle(jnp.zeros(2), 1.0, fill=(2, 0, 0)), "fill"),
-        (lambda: gi.Polygon(jnp.array([[0.0, 0.0], [1.0, np.nan], [2.0, 0.0]])), "points"),
+        (lambda: gi.Polygon(jnp.array([[0.0, 0.0], [1.0, np.nan], [2.0, 0.0]])), "vertices"),
         (lambda: gi.Polygon(jnp.zeros((3, 2)), stroke=(0, 0, 7)), "stroke"),
         (lambda: gi.Polygon(jnp.zeros((3, 2)), stroke_width=-2), "stroke_width"),
         (lambda: gi.Polyline(jnp.zeros((3, 2)), stroke_width=np.inf), "stroke_width"),
@@ -93,9 +94,9 @@ def test_rasterized_polygon_fill_is_raster_supersampling_of_the_even_odd_test():
 
     star = jnp.array([[5.0, 0.5], [7.0, 9.5], [0.5, 3.0], [9.5, 3.0], [3.0, 9.5]])  # self-crossing
     ours = gi.rasterize_shapes(
-        [gi.Polygon(star, fill=(0, 0, 0))], (10, 10), supersample=3, background=(1, 1, 1)
+        [gi.Polygon(star, fill=(0, 0, 0))], (10, 10), samples=3, background=(1, 1, 1)
     )
-    coverage = raster.supersample(lambda p: raster.inside_polygon(p, star), (10, 10), factor=3)
+    coverage = raster.supersample(lambda p: raster.inside_polygon(p, star), (10, 10), samples=3)
     np.testing.assert_allclose(1.0 - ours[..., 0], coverage, atol=1e-12)
 
 
@@ -116,7 +117,7 @@ def test_rasterized_polygon_fill_is_raster_supersampling_of_the_even_odd_test():
         (lambda: gi.selection_network(10**6, [3]), "n"),
         (lambda: gi.cross_footprint(10**6), "radius"),
         (lambda: gi.synthetic_scene((10**6, 10)), "shape"),
-        (lambda: gi.rasterize_shapes([], (4, 4), supersample=10**4), "supersample"),
+        (lambda: gi.rasterize_shapes([], (4, 4), samples=10**4), "samples"),
         (lambda: gi.rasterize_shapes([], (10**7, 4)), "shape"),
         (lambda: gi.fractal_noise(jnp.zeros((2, 2)), octaves=10**9), "octaves"),
     ],
@@ -236,8 +237,8 @@ def test_eager_equals_jit():
         (lambda x: gi.median(x, axis=0), colour),
         (lambda x: gi.median_of_sum(x[0, :, 0], x[1, :, 0])[0], colour),
         (lambda x: gi.add_salt_and_pepper(x, amount=0.3, key=jax.random.key(3)), colour),
-        (lambda x: gi.value_noise(x[..., :2] * 5, seed=2), colour),
-        (lambda x: gi.gradient_noise(x[..., :1] * 5, seed=2), colour),
+        (lambda x: gi.value_noise(x[..., :2] * 5, key=jax.random.key(2)), colour),
+        (lambda x: gi.gradient_noise(x[..., :1] * 5, key=jax.random.key(2)), colour),
         (lambda x: gi.fractal_noise(x[..., :2] * 3, octaves=3, kind="value"), colour),
     ]
     for fn, arg in cases:
@@ -246,9 +247,66 @@ def test_eager_equals_jit():
         np.testing.assert_allclose(eager, jitted, rtol=1e-13, atol=1e-15)
 
 
-def test_median_filter_compiles_once_per_shape_and_window():
+def test_median_filter_compiles_once_per_shape_and_window(caplog):
     gi.median_filter(IMG, size=3, mode="constant", cval=1.0)
-    before = gi.filters._median_filter._cache_size()
-    gi.median_filter(IMG, size=3, mode="constant", cval=9.0)  # cval is traced
-    gi.median_filter(IMG + 1, size=3, mode="constant", cval=2)
-    assert gi.filters._median_filter._cache_size() == before
+    with jax.log_compiles(), caplog.at_level(logging.DEBUG):
+        gi.median_filter(IMG, size=3, mode="constant", cval=9.0)  # cval is traced
+        gi.median_filter(IMG + 1, size=3, mode="constant", cval=2)
+        compiles = [r for r in caplog.records if "Compiling" in r.getMessage()]
+        gi.median_filter(IMG, size=5, mode="constant", cval=2)  # a new window compiles
+        assert [r for r in caplog.records if "Compiling" in r.getMessage()] != []
+    assert compiles == []
+
+
+# ------------------------------------------------------------------ NaN data (issue 17)
+
+NAN_IMAGE = np.where(IMG > 200, np.nan, IMG / 255.0)
+
+
+@pytest.mark.parametrize(
+    "call, name",
+    [
+        (lambda: gi.median_filter(NAN_IMAGE), "image"),
+        (lambda: gi.mean_filter(NAN_IMAGE), "image"),
+        (lambda: gi.gaussian_filter(NAN_IMAGE, sigma=1.0), "image"),
+        (lambda: gi.add_salt_and_pepper(NAN_IMAGE, key=jax.random.key(0)), "image"),
+        (lambda: gi.median(jnp.array([1.0, np.nan, 2.0])), "values"),
+        (lambda: gi.median_of_sum(jnp.array([1.0, np.inf]), jnp.zeros(2)), "x"),
+        (lambda: gi.write_svg("picture.png", [], (4, 4)), "path"),
+    ],
+)
+def test_nan_data_and_wrong_file_kinds_are_value_errors(call, name):
+    with pytest.raises(ValueError, match=name):
+        call()
+
+
+@pytest.mark.parametrize(
+    "call, name",
+    [
+        (lambda: gi.Polyline(jnp.zeros((3, 2)), stroke=None), "stroke"),
+        (lambda: gi.rasterize_shapes([], (4, 4), background=None), "background"),
+    ],
+)
+def test_required_colours_are_type_errors(call, name):
+    with pytest.raises(TypeError, match=name):
+        call()
+
+
+def test_nan_data_and_ignored_cval_are_checked_under_jit():
+    image = jnp.asarray(IMG / 255.0)
+    cases = [
+        (lambda x: gi.median_filter(x), jnp.asarray(NAN_IMAGE), "image"),
+        (lambda x: gi.gaussian_filter(x, sigma=1.0), jnp.asarray(NAN_IMAGE), "image"),
+        (lambda c: gi.median_filter(image, cval=c), jnp.asarray(np.nan), "cval"),  # reflect
+        (lambda c: gi.mean_filter(image, cval=c), jnp.asarray(np.inf), "cval"),
+        (lambda v: gi.median(v), jnp.array([1.0, np.nan, 2.0]), "values"),
+        (
+            lambda v: gi.Polygon(v).vertices,
+            jnp.array([[0.0, 0.0], [1, np.nan], [2, 0]]),
+            "vertices",
+        ),
+        (lambda r: gi.Circle(jnp.zeros(2), r).radius, jnp.asarray(-1.0), "radius"),
+    ]
+    for fn, bad, name in cases:
+        with pytest.raises(RUNTIME, match=name):
+            jax.block_until_ready(jax.jit(fn)(bad))

@@ -4,6 +4,7 @@ import pathlib
 import struct
 import xml.etree.ElementTree as ET
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -204,17 +205,20 @@ def test_image_info_matches_pillow(tmp_path):
 
 def test_shipped_scene_is_the_synthetic_scene():
     stored = gi.read_image(DATA / "scene.png", as_float=False)
-    rendered = np.round(gi.synthetic_scene((256, 256), seed=0) * 255)
+    rendered = np.round(gi.synthetic_scene((256, 256)) * 255)
     assert stored.shape == (256, 256, 3)
     assert np.max(np.abs(stored - rendered)) <= 1
     assert sum(p.stat().st_size for p in DATA.iterdir()) < 300_000
 
 
 def test_synthetic_scene_is_deterministic():
-    a, b = gi.synthetic_scene((30, 40), seed=3), gi.synthetic_scene((30, 40), seed=3)
+    a, b = (
+        gi.synthetic_scene((30, 40), key=jax.random.key(3)),
+        gi.synthetic_scene((30, 40), key=jax.random.key(3)),
+    )
     np.testing.assert_array_equal(a, b)
     assert a.shape == (30, 40, 3) and 0 <= a.min() and a.max() <= 1
-    assert not np.array_equal(a, gi.synthetic_scene((30, 40), seed=4))
+    assert not np.array_equal(a, gi.synthetic_scene((30, 40), key=jax.random.key(4)))
     with pytest.raises(ValueError, match="shape"):
         gi.synthetic_scene((0, 4))
 
@@ -295,7 +299,7 @@ def test_rasterize_shapes_coverage_matches_shapely():
         (gi.Polygon(jnp.asarray(points), fill=(0, 0, 0)), polygon),
         (gi.Circle(jnp.array([7.2, 5.1]), 3.3, fill=(0, 0, 0)), circle),
     ]:
-        ours = 1.0 - gi.rasterize_shapes([shape_obj], shape, supersample=8)[..., 0]
+        ours = 1.0 - gi.rasterize_shapes([shape_obj], shape, samples=8)[..., 0]
         exact = np.array(
             [[geom.intersection(sq).area for sq in row] for row in pixel_squares(shape)]
         )
@@ -312,12 +316,12 @@ def test_rasterize_shapes_uses_the_pixel_convention():
     assert float(image.sum()) == pytest.approx(float(image[row, col].sum()))
     # Strokes: a horizontal line of width 1 through pixel centres y = 2 covers that row.
     line = gi.Polyline(jnp.array([[0.0, 2.0], [5.0, 2.0]]), stroke=(1, 1, 1), stroke_width=1.0)
-    image = gi.rasterize_shapes([line], (8, 6), background=(0, 0, 0), supersample=4)
+    image = gi.rasterize_shapes([line], (8, 6), background=(0, 0, 0), samples=4)
     np.testing.assert_allclose(image[8 - 1 - 2, 1:5, 0], 1.0)
 
 
 def test_vector_bad_input(tmp_path):
-    with pytest.raises(ValueError, match="points"):
+    with pytest.raises(ValueError, match="vertices"):
         gi.Polygon(jnp.zeros((3, 3)))
     with pytest.raises(TypeError, match="shapes"):
         gi.write_svg(tmp_path / "a.svg", [np.zeros((3, 2))], (4, 4))
@@ -325,5 +329,5 @@ def test_vector_bad_input(tmp_path):
         gi.rasterize_shapes([gi.Polygon(jnp.zeros((3, 2)), fill=(2, 0, 0))], (4, 4))
     with pytest.raises(ValueError, match="shape"):
         gi.rasterize_shapes([], (0, 4))
-    with pytest.raises(ValueError, match="supersample"):
-        gi.rasterize_shapes([], (4, 4), supersample=0)
+    with pytest.raises(ValueError, match="samples"):
+        gi.rasterize_shapes([], (4, 4), samples=0)

@@ -344,14 +344,14 @@ def test_supersample_converges_to_coverage():
     vertices = jnp.array([[2.3, 1.7], [29.2, 4.4], [5.5, 21.9]])
     exact = raster.polygon_coverage(vertices, SHAPE)
     images = [
-        raster.supersample(lambda p: raster.inside_polygon(p, vertices), SHAPE, factor=k)
+        raster.supersample(lambda p: raster.inside_polygon(p, vertices), SHAPE, samples=k)
         for k in (1, 4, 16)
     ]
     errors = [float(jnp.abs(image - exact).mean()) for image in images]
     assert errors[0] > errors[1] > errors[2] and errors[2] < 2e-3
     np.testing.assert_array_equal(images[0], raster.fill_polygon(vertices, SHAPE))
     # a half-plane edge on the sub-sample grid is reproduced exactly
-    half = raster.supersample(lambda p: p[..., 0] < 3.25, (2, 6), factor=4)
+    half = raster.supersample(lambda p: p[..., 0] < 3.25, (2, 6), samples=4)
     np.testing.assert_allclose(half[0], [1, 1, 1, 0.75, 0, 0])
 
 
@@ -373,8 +373,8 @@ def test_coverage_gradients():
 def test_antialiasing_bad_inputs():
     with pytest.raises(TypeError, match="fn"):
         raster.supersample(3, SHAPE)
-    with pytest.raises(ValueError, match="factor"):
-        raster.supersample(lambda p: p[..., 0] > 0, SHAPE, factor=0)
+    with pytest.raises(ValueError, match="samples"):
+        raster.supersample(lambda p: p[..., 0] > 0, SHAPE, samples=0)
     with pytest.raises(ValueError, match="fn"):
         raster.supersample(lambda p: p, SHAPE)
     with pytest.raises(ValueError, match="vertices"):

@@ -59,7 +59,7 @@ def test_none_is_a_type_error_naming_the_argument(call, name):
         (lambda: raster.points_to_image(jnp.zeros((1, 2), int), (10**7, 10)), "shape"),
         (lambda: raster.fill_polygon(SQUARE, (4, 10**8)), "shape"),
         (lambda: raster.polygon_coverage(SQUARE, (10**6, 10**6)), "shape"),
-        (lambda: raster.supersample(lambda p: p[..., 0] > 0, (4, 4), factor=10**5), "factor"),
+        (lambda: raster.supersample(lambda p: p[..., 0] > 0, (4, 4), samples=10**5), "samples"),
         (lambda: raster.raster_scan(jnp.zeros((2, 2)), h_retrace=10**9), "h_retrace"),
         (lambda: raster.random_scan(jnp.zeros((1, 2, 2)), samples_per_segment=10**8), "samples"),
         (
@@ -168,7 +168,7 @@ def test_eager_equals_jit():
         (lambda v: raster.inside_polygon(v + 0.25, SQUARE), SQUARE),
         (lambda v: raster.line_coverage(v[0], v[2], (6, 5), width=1.5), SQUARE),
         (
-            lambda v: raster.supersample(lambda p: raster.inside_polygon(p, v), (6, 5), factor=3),
+            lambda v: raster.supersample(lambda p: raster.inside_polygon(p, v), (6, 5), samples=3),
             SQUARE,
         ),
         (lambda f: raster.raster_scan(f, interlaced=True).intensity, frame),
@@ -190,3 +190,42 @@ def test_stepwise_lines_compile_once_per_length_and_axis():
     before = raster.lines._dda_scan._cache_size()
     raster.line_dda_steps((5, -2), (-2, -5))  # same length and axis, other start and signs
     assert raster.lines._dda_scan._cache_size() == before
+
+
+# ------------------------------------------------------- centres, points, beams (issue 17)
+
+
+@pytest.mark.parametrize(
+    "call, name",
+    [
+        (lambda: raster.midpoint_circle(3, center=(10**12, 0)), "center"),
+        (lambda: raster.midpoint_ellipse_steps(3, 2, center=(0, -(2**31))), "center"),
+        (lambda: raster.inside_polygon([[np.nan, 0.0]], SQUARE), "points"),
+        (lambda: raster.BeamPath([[0.0, 0.0]], [2.0], [True]), "intensity"),
+        (lambda: raster.BeamPath([[0.0, np.inf]], [1.0], [True]), "positions"),
+        (lambda: raster.BeamPath([[0.0, 0.0]], [1.0], [True, False]), "on"),
+        (lambda: raster.BeamPath(np.zeros((0, 2)), [], []), "positions"),
+    ],
+)
+def test_huge_centres_nan_points_and_bad_beams_are_value_errors(call, name):
+    with pytest.raises(ValueError, match=name):
+        call()
+
+
+def test_beam_path_types_and_traced_checks():
+    with pytest.raises(TypeError, match="positions"):
+        raster.BeamPath(None, [1.0], [True])
+    with pytest.raises(TypeError, match="on"):
+        raster.BeamPath([[0.0, 0.0]], [1.0], [1])
+    make = jax.jit(lambda i: raster.BeamPath(jnp.zeros((2, 2)), i, jnp.array([True, False])))
+    with pytest.raises(RUNTIME, match="intensity"):
+        jax.block_until_ready(make(jnp.array([0.5, np.nan])))
+    with pytest.raises(RUNTIME, match="points"):
+        jax.block_until_ready(jax.jit(raster.inside_polygon)(jnp.full((1, 2), np.nan), SQUARE))
+    beam = raster.random_scan(jnp.array([[[0.0, 0.0], [3.0, 2.0]]]))  # built under jit
+    assert isinstance(beam, raster.BeamPath) and beam.positions.shape[0] == beam.on.shape[0]
+
+
+def test_points_to_image_rejects_non_numbers():
+    with pytest.raises(TypeError, match="points"):
+        raster.points_to_image("abc", (4, 4))

@@ -136,10 +136,15 @@ def test_screen_scene_of_a_cube():
     images = [np.asarray(m(triangles, colors, (40, 40)).image) for m in METHODS]
     for image in images[1:]:
         assert np.mean(np.all(image == images[0], -1)) >= 0.995
-    # a face crossing the near plane is skipped (NaN corners), not drawn wrongly
+    # a face crossing the near plane is skipped (a zero-area triangle), not drawn wrongly
     close = Camera(jnp.array([0.0, 0.0, 0.55]), near=0.5, far=10.0)
     triangles, _ = R.screen_scene(mesh, close, (40, 40))
-    assert bool(jnp.any(jnp.isnan(triangles))) and bool(jnp.any(jnp.isfinite(triangles)))
+    u, v = (
+        np.asarray(triangles[:, 1] - triangles[:, 0]),
+        np.asarray(triangles[:, 2] - triangles[:, 0]),
+    )
+    area = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+    assert np.any(area == 0) and np.any(area != 0) and bool(jnp.all(jnp.isfinite(triangles)))
 
 
 def test_bad_inputs():
@@ -155,3 +160,84 @@ def test_bad_inputs():
         R.quadtree_cells("x", (8, 8))
     with pytest.raises(ValueError, match="quadtree"):
         R.quadtree_cells((np.zeros((1, 1), int), np.zeros((3, 3), int)), (8, 8))
+
+
+def test_nan_scenes_are_errors_eagerly_and_under_jit():
+    import jax
+
+    triangles, colors = layered_scene(0, 3, (8, 8))
+    nan_triangles = triangles.at[1, 2, 0].set(jnp.nan)
+    for method in METHODS:
+        for kwargs, name in (
+            (dict(triangles=nan_triangles), "triangles"),
+            (dict(colors=colors.at[0, 1].set(jnp.inf)), "colors"),
+            (dict(colors=jnp.zeros((3, 7))), "colors"),  # 7 channels: not a colour
+            (dict(background=jnp.array([0.0, jnp.nan, 0.0])), "background"),
+        ):
+            call = dict(triangles=triangles, colors=colors, background=0.0) | kwargs
+            with pytest.raises(ValueError, match=name):
+                method(call["triangles"], call["colors"], (8, 8), background=call["background"])
+    with pytest.raises(ValueError, match="triangles"):  # counts differ: both are named
+        R.zbuffer(triangles[:0], colors, (8, 8))
+    assert R.zbuffer(triangles[:0], colors[:0], (8, 8)).image.shape == (8, 8, 3)
+    jitted = jax.jit(lambda t: R.zbuffer(t, colors, (8, 8)).image)
+    with pytest.raises((ValueError, RuntimeError), match="triangles"):
+        jax.block_until_ready(jitted(nan_triangles))
+    np.testing.assert_array_equal(jitted(triangles), R.zbuffer(triangles, colors, (8, 8)).image)
+    with pytest.raises(ValueError, match="ambient"):
+        R.screen_scene(cube(), Camera(jnp.array([2.0, 1.5, 3.0])), (8, 8), ambient=jnp.nan)
+    with pytest.raises(ValueError, match="light"):
+        R.screen_scene(cube(), Camera(jnp.array([2.0, 1.5, 3.0])), (8, 8), light=jnp.zeros(3))
+
+
+def test_visibility_result_validates():
+    image = jnp.zeros((2, 3, 3))
+    with pytest.raises(TypeError, match="counters"):
+        R.VisibilityResult(image, None, None)
+    with pytest.raises(ValueError, match="image"):
+        R.VisibilityResult(image.at[0, 0, 0].set(jnp.nan), None, {})
+    with pytest.raises(ValueError, match="depth"):
+        R.VisibilityResult(image, jnp.zeros((3, 2)), {})
+    with pytest.raises(ValueError, match="depth"):
+        R.VisibilityResult(image, jnp.full((2, 3), jnp.nan), {})
+    assert R.VisibilityResult(image, jnp.full((2, 3), jnp.inf), {}).depth.shape == (2, 3)
+
+
+def test_shading_bad_inputs():
+    import jax
+
+    light = R.PointLight([0.0, 0.0, 5.0])
+    albedo, normal, position, eye = (
+        jnp.ones((4, 3)),
+        jnp.zeros((4, 3)),
+        jnp.zeros((4, 3)),
+        [
+            0.0,
+            0.0,
+            3.0,
+        ],
+    )
+    np.testing.assert_allclose(  # no lights: the ambient term alone
+        R.shade(albedo, normal, position, eye, lights=(), ambient=0.25), 0.25 * albedo
+    )
+    for kwargs, error, name in (
+        (dict(lights=None), TypeError, "lights"),
+        (dict(albedo=albedo.at[0, 0].set(jnp.nan)), ValueError, "albedo"),
+        (dict(albedo=jnp.ones((4, 7))), ValueError, "albedo"),
+        (dict(normal=normal.at[1, 1].set(jnp.inf)), ValueError, "normal"),
+        (dict(eye=[0.0, jnp.nan, 1.0]), ValueError, "eye"),
+        (dict(ambient=jnp.nan), ValueError, "ambient"),
+    ):
+        call = dict(albedo=albedo, normal=normal, position=position, eye=eye, lights=light) | kwargs
+        with pytest.raises(error, match=name):
+            R.shade(**call)
+    texture = jnp.linspace(0.0, 1.0, 2 * 3 * 3).reshape(2, 3, 3)
+    uv = jnp.array([[0.25, 0.5]])
+    with pytest.raises(ValueError, match="texture"):
+        R.sample_texture(texture.at[0, 0, 0].set(jnp.nan), uv)
+    with pytest.raises(ValueError, match="texture"):
+        R.sample_texture(jnp.zeros((2, 3, 7)), uv)
+    with pytest.raises(ValueError, match="uv"):
+        R.sample_texture(texture, uv.at[0, 0].set(jnp.nan))
+    with pytest.raises((ValueError, RuntimeError), match="uv"):
+        jax.block_until_ready(jax.jit(R.sample_texture)(texture, uv.at[0, 1].set(jnp.inf)))

@@ -21,10 +21,12 @@ The submodules, all re-exported here:
   sorting/selection network (compare-exchange = `minimum`/`maximum` of shifted views);
   `mean_filter` and `gaussian_filter` are the linear filters to contrast it with. All
   three match `scipy.ndimage` for every border mode.
-- `noise`: `value_noise` (gfxlab's one value noise), `gradient_noise`, `fractal_noise`.
-- `scenes`: `add_salt_and_pepper` and `synthetic_scene`, test pictures.
+- `noise`: `value_noise` (gfxlab's one value noise), `gradient_noise`, `fractal_noise`;
+  randomness is a `jax.random` key (`key=`, default `DEFAULT_KEY` = `jax.random.key(0)`).
+- `scenes`: `add_salt_and_pepper` and `synthetic_scene` (both take `key=`), test pictures.
 
-Called eagerly, each function is one compiled call (checks in Python first).
+Called eagerly, each function is one compiled call (checks in Python first; NaN/inf
+in the data are checked inside that call, through `equinox.error_if`).
 """
 
 from __future__ import annotations

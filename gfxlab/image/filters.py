@@ -16,7 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Shaped
 
-from .._checks import is_traced, static_int
+from .._checks import checked_jit, is_traced, static_int
 from ..raster._args import array_arg, finite_arg, float_dtype, float_scalar, range_check
 from .networks import (
     MAX_NETWORK_SIZE,
@@ -24,6 +24,7 @@ from .networks import (
     _middle_ranks,
     _run_network,
     _selection_network,
+    guard_finite,
 )
 
 __all__ = [
@@ -75,6 +76,12 @@ def _check_mode(mode) -> str:
     if not isinstance(mode, str) or mode not in MODES:
         raise ValueError(f"`mode` must be one of {MODES}, got {mode!r}")
     return mode
+
+
+def _guard_image(out, image, cval):
+    """`out` after the value checks of every filter on its `image` and `cval`, run inside
+    the filter's one compiled call (attached to the result, the last operation)."""
+    return guard_finite(guard_finite(out, image, "image"), cval, "cval")
 
 
 def _window_size(size, maximum: int) -> tuple[int, int]:
@@ -247,7 +254,7 @@ def median_filter(
     return _median_filter(image, cval, footprint=key, mode=mode)
 
 
-@functools.partial(jax.jit, static_argnames=("footprint", "mode"))
+@functools.partial(checked_jit, static_argnames=("footprint", "mode"))
 def _median_filter(image, cval, *, footprint, mode):
     footprint = np.array(footprint, dtype=bool)
     ranks = _middle_ranks(int(footprint.sum()))
@@ -257,7 +264,7 @@ def _median_filter(image, cval, *, footprint, mode):
     values = _window_ranks(padded, image.shape[:2], footprint, ranks)
     if image.ndim == 3:
         values = [jnp.moveaxis(v, 0, -1) for v in values]
-    return _combine_middle(values, image.dtype)
+    return _guard_image(_combine_middle(values, image.dtype), image, cval)
 
 
 def _correlate_separable(padded, shape_hw, kernels):
@@ -303,15 +310,17 @@ def mean_filter(
     return _mean_filter(image, cval, size=(kh, kw), mode=mode)
 
 
-@functools.partial(jax.jit, static_argnames=("size", "mode"))
+@functools.partial(checked_jit, static_argnames=("size", "mode"))
 def _mean_filter(image, cval, *, size, mode):
+    source = image
     image = image.astype(float_dtype(image))
     kh, kw = size
     kernels = ([1.0 / kh] * kh, [1.0 / kw] * kw)
-    return _on_planes(
+    out = _on_planes(
         lambda x: _correlate_separable(_pad(x, (kh, kw), mode, cval), image.shape[:2], kernels),
         image,
     )
+    return _guard_image(out, source, cval)
 
 
 def gaussian_filter(
@@ -380,8 +389,9 @@ def _check_sigma(sigma):
     return range_check(finite_arg(arr, "sigma"), "sigma", low=0)
 
 
-@functools.partial(jax.jit, static_argnames=("radii", "mode"))
+@functools.partial(checked_jit, static_argnames=("radii", "mode"))
 def _gaussian_filter(image, sigma, cval, *, radii, mode):
+    source = image
     image = image.astype(float_dtype(image))
     sigma = jnp.broadcast_to(jnp.asarray(sigma).astype(image.dtype), (2,))
     kernels = []
@@ -390,7 +400,8 @@ def _gaussian_filter(image, sigma, cval, *, radii, mode):
         w = jnp.exp(-0.5 * (x / sigma[axis]) ** 2)
         kernels.append(list(w / jnp.sum(w)))
     window = (2 * radii[0] + 1, 2 * radii[1] + 1)
-    return _on_planes(
+    out = _on_planes(
         lambda x: _correlate_separable(_pad(x, window, mode, cval), image.shape[:2], kernels),
         image,
     )
+    return _guard_image(out, source, cval)

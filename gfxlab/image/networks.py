@@ -6,11 +6,12 @@ from __future__ import annotations
 import functools
 from collections.abc import Sequence
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Shaped
 
-from .._checks import static_int
+from .._checks import checked_jit, static_int
 from ..raster._args import array_arg
 
 __all__ = ["MAX_NETWORK_SIZE", "selection_network", "median", "median_of_sum"]
@@ -133,10 +134,31 @@ def median(values: Shaped[Array, "*batch n"], *, axis: int = -1) -> Shaped[Array
     if n == 0:
         raise ValueError("`values` must be non-empty along `axis`")
     static_int(n, "values.shape[axis]", maximum=MAX_NETWORK_SIZE)
-    return _median(values, axis=axis)
+    return _checked_median(values, axis=axis)
 
 
-@jax.jit(static_argnames="axis")
+def guard_finite(x, checked, name: str):
+    """Inside a jitted function: `x` after checking that `checked` (a float array) holds
+    no NaN or inf (`equinox.error_if`; `checked_jit` turns it into `ValueError` eagerly).
+
+    The error is attached to a scalar `1` that multiplies `x` (exact), so the check
+    costs one fused reduction, not a copy of `x` through a conditional."""
+    if not jnp.issubdtype(jnp.result_type(checked), jnp.floating):
+        return x
+    one = eqx.error_if(
+        jnp.ones((), x.dtype),
+        ~jnp.all(jnp.isfinite(checked)),
+        f"`{name}` must be finite (no NaN or inf)",
+    )
+    return x * one
+
+
+@functools.partial(checked_jit, static_argnames="axis")
+def _checked_median(values, *, axis):
+    return guard_finite(_median(values, axis=axis), values, "values")
+
+
+@functools.partial(jax.jit, static_argnames="axis")
 def _median(values, *, axis):
     values = jnp.moveaxis(values, axis, -1)
     n = values.shape[-1]
@@ -168,6 +190,7 @@ def median_of_sum(x, y) -> tuple[jax.Array, jax.Array]:
     return _median_of_sum(x, y)
 
 
-@jax.jit
+@checked_jit
 def _median_of_sum(x, y):
-    return _median(x + y, axis=-1), _median(x, axis=-1) + _median(y, axis=-1)
+    both = _median(x + y, axis=-1), _median(x, axis=-1) + _median(y, axis=-1)
+    return tuple(guard_finite(guard_finite(v, x, "x"), y, "y") for v in both)

@@ -1,6 +1,13 @@
 """Lattice noise: value noise (the one owner of it in gfxlab), gradient noise and their
 fractal sums, in 1D or 2D, for textures (`synthetic_scene`) and secondary motion
-(`gfxlab.animation`)."""
+(`gfxlab.animation`).
+
+Randomness is a `jax.random` key (`key=`), as everywhere in gfxlab: the 32-bit seed of
+the lattice hash is `jax.random.bits(key, dtype=uint32)`, so a key may be traced (split
+keys under `vmap`, a key argument of a jitted function). The default key, `DEFAULT_KEY`,
+is the data of `jax.random.key(0)`: the default noise is deterministic and equal to that
+of `key=jax.random.key(0)`.
+"""
 
 from __future__ import annotations
 
@@ -8,12 +15,18 @@ import functools
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
-from .._checks import check_last_dim, static_int
+from .._checks import check_last_dim, checked_jit, static_int
 from ..raster._args import array_arg, finite_arg, float_dtype, float_scalar
 
-__all__ = ["MAX_OCTAVES", "value_noise", "gradient_noise", "fractal_noise"]
+__all__ = ["MAX_OCTAVES", "DEFAULT_KEY", "value_noise", "gradient_noise", "fractal_noise"]
+
+#: The default `key` of the noise functions: the raw data of `jax.random.key(0)`
+#: (a `uint32[2]` array, read-only), so that importing gfxlab creates no JAX array.
+DEFAULT_KEY = np.zeros(2, np.uint32)
+DEFAULT_KEY.flags.writeable = False
 
 #: Most layers of `fractal_noise` (a documented size limit; with the default
 #: lacunarity 2 the 32nd layer is already finer than float32 resolves).
@@ -38,6 +51,28 @@ def _hash(ints: jax.Array, seed) -> jax.Array:
         h = (h ^ (h >> 15)) * jnp.uint32(0x846CA68B)
         h = h ^ (h >> 16)
     return (h >> 8).astype(jnp.float32) / float(1 << 24)
+
+
+def check_key(key, name: str = "key"):
+    """A single `jax.random` key: a typed key (`jax.random.key`) or raw `uint32[2]` key
+    data (`jax.random.PRNGKey`); may be traced. `TypeError` naming `name` otherwise."""
+    if key is None:
+        raise TypeError(f"`{name}` must be a jax.random key (e.g. `jax.random.key(0)`), got None")
+    dtype = getattr(key, "dtype", None)
+    shape = getattr(key, "shape", None)
+    typed = dtype is not None and jnp.issubdtype(dtype, jax.dtypes.prng_key)
+    raw = dtype == np.uint32 and shape == (2,)
+    if not isinstance(key, jax.Array | np.ndarray) or not (typed and shape == () or raw):
+        raise TypeError(
+            f"`{name}` must be a single jax.random key (e.g. `jax.random.key(0)`), got "
+            f"{type(key).__name__} {getattr(key, 'dtype', '')}{list(shape or [])}"
+        )
+    return key
+
+
+def key_seed(key) -> jax.Array:
+    """The lattice hash seed of a key: `jax.random.bits(key, dtype=uint32)` (traceable)."""
+    return jax.random.bits(key, dtype=jnp.uint32)
 
 
 def _fade(t):
@@ -88,32 +123,37 @@ def _gradient(x, seed):
     return _lattice_blend(x, ramp)
 
 
-def value_noise(x: Float[Array, "*batch dim"], *, seed: int = 0) -> Float[Array, "*batch"]:
+def value_noise(
+    x: Float[Array, "*batch dim"], *, key: jax.Array = DEFAULT_KEY
+) -> Float[Array, "*batch"]:
     """Value noise in 1D or 2D: random values on the integer lattice, blended smoothly.
 
     **Arguments:**
 
     - `x`: `(..., 1)` or `(..., 2)` finite positions (use `t[..., None]` for a time
       signal); integer positions are taken as floats.
-    - `seed`: a Python int choosing the random lattice.
+    - `key`: a `jax.random` key choosing the random lattice (may be traced; default
+      `DEFAULT_KEY`, the data of `jax.random.key(0)`).
 
     **Returns:** values in `[-1, 1]`, shape `x.shape[:-1]`; equal to the lattice value at
     integer points, C2 smooth in between (quintic fade), differentiable in `x`.
 
-    >>> v = value_noise(jnp.array([[0.0, 0.0], [0.5, 0.25]]), seed=3)
+    >>> v = value_noise(jnp.array([[0.0, 0.0], [0.5, 0.25]]), key=jax.random.key(3))
     >>> v.shape, bool(jnp.all(jnp.abs(v) <= 1))
     ((2,), True)
     """
     x = _noise_points(x)
-    return _value_noise(x, seed=static_int(seed, "seed"))
+    return _value_noise(x, check_key(key))
 
 
-@functools.partial(jax.jit, static_argnames=("seed",))
-def _value_noise(x, *, seed):
-    return _value(x.astype(float_dtype(x)), seed)
+@checked_jit
+def _value_noise(x, key):
+    return _value(x.astype(float_dtype(x)), key_seed(key))
 
 
-def gradient_noise(x: Float[Array, "*batch dim"], *, seed: int = 0) -> Float[Array, "*batch"]:
+def gradient_noise(
+    x: Float[Array, "*batch dim"], *, key: jax.Array = DEFAULT_KEY
+) -> Float[Array, "*batch"]:
     """Gradient (Perlin-style) noise in 1D or 2D.
 
     Each lattice point holds a random unit gradient; the noise is the faded blend of the
@@ -123,12 +163,12 @@ def gradient_noise(x: Float[Array, "*batch dim"], *, seed: int = 0) -> Float[Arr
     **Arguments:** as `value_noise`. **Returns:** values roughly in `[-1, 1]`.
     """
     x = _noise_points(x)
-    return _gradient_noise(x, seed=static_int(seed, "seed"))
+    return _gradient_noise(x, check_key(key))
 
 
-@functools.partial(jax.jit, static_argnames=("seed",))
-def _gradient_noise(x, *, seed):
-    return _gradient(x.astype(float_dtype(x)), seed)
+@checked_jit
+def _gradient_noise(x, key):
+    return _gradient(x.astype(float_dtype(x)), key_seed(key))
 
 
 def fractal_noise(
@@ -138,7 +178,7 @@ def fractal_noise(
     lacunarity: float = 2.0,
     gain: float = 0.5,
     kind: str = "gradient",
-    seed: int = 0,
+    key: jax.Array = DEFAULT_KEY,
 ) -> Float[Array, "*batch"]:
     """Sum of `octaves` noise layers, each `lacunarity` times finer and `gain` times weaker
     (fractional Brownian motion), normalised to the range of one layer.
@@ -150,7 +190,8 @@ def fractal_noise(
     - `lacunarity`: frequency factor between layers (finite, > 0; may be traced).
     - `gain`: amplitude factor between layers (finite, > 0; may be traced).
     - `kind`: `"gradient"` or `"value"` noise layers.
-    - `seed`: a Python int; layer `o` uses seed `seed + 7919 o`.
+    - `key`: a `jax.random` key (may be traced); layer `o` hashes with seed
+      `s + 7919 o` (modulo 2^32), where `s = jax.random.bits(key, dtype=uint32)`.
 
     **Returns:** values roughly in `[-1, 1]`, shape `x.shape[:-1]`.
     """
@@ -160,17 +201,18 @@ def fractal_noise(
     x = _noise_points(x)
     lacunarity = float_scalar(lacunarity, "lacunarity", low=0)
     gain = float_scalar(gain, "gain", low=0)
-    seed = static_int(seed, "seed")
-    return _fractal_noise(x, lacunarity, gain, octaves=octaves, kind=kind, seed=seed)
+    key = check_key(key)
+    return _fractal_noise(x, lacunarity, gain, key, octaves=octaves, kind=kind)
 
 
-@functools.partial(jax.jit, static_argnames=("octaves", "kind", "seed"))
-def _fractal_noise(x, lacunarity, gain, *, octaves, kind, seed):
+@functools.partial(checked_jit, static_argnames=("octaves", "kind"))
+def _fractal_noise(x, lacunarity, gain, key, *, octaves, kind):
     x = x.astype(float_dtype(x))
+    seed = key_seed(key)
     noise = _gradient if kind == "gradient" else _value
     total, amplitude, norm, scale = 0.0, 1.0, 0.0, 1.0
     for o in range(octaves):
-        total = total + amplitude * noise(x * scale, seed + 7919 * o)
+        total = total + amplitude * noise(x * scale, seed + jnp.uint32(7919 * o))
         norm = norm + amplitude
         amplitude = amplitude * gain
         scale = scale * lacunarity

@@ -7,11 +7,12 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from .._checks import static_int
+from .._checks import checked_jit
 from .._pixels import checked_shape
 from ..raster._args import float_dtype, float_scalar
 from .filters import _check_filter_image
-from .noise import _value
+from .networks import guard_finite
+from .noise import DEFAULT_KEY, _value, check_key
 
 __all__ = ["add_salt_and_pepper", "synthetic_scene"]
 
@@ -34,18 +35,12 @@ def add_salt_and_pepper(
     """
     image = _check_filter_image(image)
     amount = float_scalar(amount, "amount", low=0, high=1, low_open=False)
-    if key is None:
-        raise TypeError("`key` must be a jax.random key (e.g. `jax.random.key(0)`), got None")
-    if not isinstance(key, jax.Array) or not (
-        jnp.issubdtype(key.dtype, jax.dtypes.prng_key)
-        or (key.dtype == jnp.uint32 and key.shape == (2,))
-    ):
-        raise TypeError(f"`key` must be a single jax.random key, got {key!r}")
-    return _salt_and_pepper(image, amount, key)
+    return _salt_and_pepper(image, amount, check_key(key))
 
 
-@jax.jit
+@checked_jit
 def _salt_and_pepper(image, amount, key):
+    image = guard_finite(image, image, "image")
     image = image.astype(float_dtype(image))
     k1, k2 = jax.random.split(key)
     u = jax.random.uniform(k1, image.shape[:2], dtype=image.dtype)
@@ -56,24 +51,49 @@ def _salt_and_pepper(image, amount, key):
     return jnp.where(hit, jnp.where(salt, 1.0, 0.0).astype(image.dtype), image)
 
 
+def _scene_number(key) -> int:
+    """A concrete key's data as one non-negative integer (`jax.random.key(n)` -> `n`)."""
+    if isinstance(key, jax.core.Tracer):
+        raise TypeError("`key` must be a concrete jax.random key (the scene is NumPy), not traced")
+    data = (
+        np.asarray(
+            jax.random.key_data(key) if jnp.issubdtype(key.dtype, jax.dtypes.prng_key) else key
+        )
+        .astype(np.uint64)
+        .ravel()
+    )
+    number = 0
+    for word in data:
+        number = (number << 32) | int(word)
+    return number
+
+
 @jax.jit
 def _scene_noise(uv, cells, seeds):
     return jax.vmap(lambda c, s: _value(uv * c, s))(cells, seeds)
 
 
-def synthetic_scene(shape: tuple[int, int] = (256, 256), *, seed: int = 0) -> np.ndarray:
+def synthetic_scene(
+    shape: tuple[int, int] = (256, 256), *, key: jax.Array = DEFAULT_KEY
+) -> np.ndarray:
     """A procedural, photograph-like RGB scene: sky, sun, hills, a house, a tree, grass
     texture (`value_noise`) and sensor noise. Deterministic for a given `shape` and
-    `seed`, with and without `jax_enable_x64`.
+    `key`, with and without `jax_enable_x64`.
 
-    `data/images/scene.png` is `synthetic_scene()` written by `write_image`.
+    **Arguments:**
+
+    - `shape`: `(H, W)` (static).
+    - `key`: a concrete `jax.random` key. The scene's number is the key's data read as
+      one 64-bit integer, so `jax.random.key(n)` gives scene `n`; the default
+      (`DEFAULT_KEY`, the data of `jax.random.key(0)`) gives scene 0, which is
+      `data/images/scene.png` (written by `write_image`).
 
     **Returns:**
 
     A float64 NumPy array `(H, W, 3)` in [0, 1].
     """
     height, width = checked_shape(shape)
-    seed = static_int(seed, "seed", minimum=0)
+    seed = _scene_number(check_key(key))
     rng = np.random.default_rng(seed)
     v, u = np.meshgrid(np.linspace(1, 0, height), np.linspace(0, 1, width), indexing="ij")
     # Value noise on `cells x cells` lattices over the picture, one layer per size,

@@ -19,7 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from .._checks import check_shape, is_traced, static_int
+from .._checks import check_shape, is_traced, static_int, value_error_if
 from .._pixels import checked_shape
 from ..raster._args import array_arg, finite_arg
 from ..raster.antialias import MAX_SUPERSAMPLE, supersample_values
@@ -44,6 +44,13 @@ def _colour(value, name: str) -> tuple[float, float, float] | None:
     return rgb
 
 
+def _required_colour(value, name: str) -> tuple[float, float, float]:
+    """An RGB colour in [0, 1] as a tuple of floats; `None` is a `TypeError`."""
+    if value is None:
+        raise TypeError(f"`{name}` must be an RGB colour (3 numbers in [0, 1]), got None")
+    return _colour(value, name)
+
+
 def _stroke_width(value) -> float:
     if value is None or isinstance(value, bool | str | bytes):
         raise TypeError(f"`stroke_width` must be a number of pixels, got {value!r}")
@@ -60,9 +67,7 @@ def _points(value, name: str, what: str):
     """Finite `(N, 2)` points, kept as given (a traced array stays traced)."""
     arr = array_arg(value, name)
     check_shape(arr, name, (None, 2))
-    if not is_traced(value):
-        finite_arg(np.asarray(arr), name)
-    return jnp.asarray(arr)
+    return jnp.asarray(finite_arg(arr, name))
 
 
 def _scalar(value, name: str, *, minimum: float = 0.0):
@@ -70,18 +75,24 @@ def _scalar(value, name: str, *, minimum: float = 0.0):
     check_shape(arr, name, ())
     if not is_traced(value) and not (np.isfinite(float(arr)) and float(arr) >= minimum):
         raise ValueError(f"`{name}` must be finite and >= {minimum:g}, got {value!r}")
+    if is_traced(value):
+        arr = value_error_if(
+            arr,
+            ~(jnp.isfinite(arr) & (arr >= minimum)),
+            f"`{name}` must be finite and >= {minimum:g}",
+        )
     return jnp.asarray(arr)
 
 
 class Polygon(eqx.Module):
     """A closed polygon in pixel coordinates (y up), filled with the even-odd rule.
 
-    **Fields:** `points` `(N, 2)` vertices; `fill`, `stroke` RGB colours in [0, 1] or
+    **Fields:** `vertices` `(V, 2)`; `fill`, `stroke` RGB colours in [0, 1] or
     `None`; `stroke_width` in pixels (round joins). Checked at construction.
     """
 
-    points: Float[Array, "N 2"] = eqx.field(
-        converter=functools.partial(_points, name="points", what="polygon vertices (x, y)")
+    vertices: Float[Array, "V 2"] = eqx.field(
+        converter=functools.partial(_points, name="vertices", what="polygon vertices (x, y)")
     )
     fill: tuple | None = eqx.field(
         static=True, default=(0.0, 0.0, 0.0), converter=functools.partial(_colour, name="fill")
@@ -95,15 +106,17 @@ class Polygon(eqx.Module):
 class Polyline(eqx.Module):
     """An open polyline in pixel coordinates (y up), stroked with round caps and joins.
 
-    **Fields:** `points` `(N, 2)`; `stroke` RGB colour in [0, 1]; `stroke_width` in pixels.
+    **Fields:** `vertices` `(V, 2)`; `stroke` RGB colour in [0, 1]; `stroke_width` in pixels.
     Checked at construction.
     """
 
-    points: Float[Array, "N 2"] = eqx.field(
-        converter=functools.partial(_points, name="points", what="polyline vertices (x, y)")
+    vertices: Float[Array, "V 2"] = eqx.field(
+        converter=functools.partial(_points, name="vertices", what="polyline vertices (x, y)")
     )
     stroke: tuple = eqx.field(
-        static=True, default=(0.0, 0.0, 0.0), converter=functools.partial(_colour, name="stroke")
+        static=True,
+        default=(0.0, 0.0, 0.0),
+        converter=functools.partial(_required_colour, name="stroke"),
     )
     stroke_width: float = eqx.field(static=True, default=1.0, converter=_stroke_width)
 
@@ -130,9 +143,7 @@ class Circle(eqx.Module):
 def _center(value):
     arr = array_arg(value, "center")
     check_shape(arr, "center", (2,))
-    if not is_traced(value):
-        finite_arg(np.asarray(arr), "center")
-    return jnp.asarray(arr)
+    return jnp.asarray(finite_arg(arr, "center"))
 
 
 def _check_shapes(shapes) -> list:
@@ -172,7 +183,7 @@ def write_svg(
 
     **Arguments:**
 
-    - `path`: the `.svg` file to write.
+    - `path`: the `.svg` file to write (the name must end in `.svg`).
     - `shapes`: `Polygon`, `Polyline` and `Circle` objects, drawn in order (painter's).
     - `shape`: `(H, W)`, the size of the canvas in pixels.
     - `background`: RGB colour in [0, 1] of the canvas, or `None` for transparent.
@@ -182,6 +193,8 @@ def write_svg(
     The path written.
     """
     path = _check_path(path)
+    if path.suffix.lower() != ".svg":
+        raise ValueError(f"`path` must name an .svg file, got {str(path)!r}")
     height, width = checked_shape(shape)
     shapes = _check_shapes(shapes)
     background = _colour(background, "background")
@@ -203,13 +216,13 @@ def write_svg(
     for s in shapes:
         if isinstance(s, Polygon):
             lines.append(
-                f'  <polygon points="{xy(s.points)}" fill="{_svg_colour(s.fill)}" '
+                f'  <polygon points="{xy(s.vertices)}" fill="{_svg_colour(s.fill)}" '
                 f'fill-rule="evenodd" stroke="{_svg_colour(s.stroke)}" '
                 f'stroke-width="{s.stroke_width:g}" stroke-linejoin="round"/>'
             )
         elif isinstance(s, Polyline):
             lines.append(
-                f'  <polyline points="{xy(s.points)}" fill="none" '
+                f'  <polyline points="{xy(s.vertices)}" fill="none" '
                 f'stroke="{_svg_colour(s.stroke)}" stroke-width="{s.stroke_width:g}" '
                 'stroke-linecap="round" stroke-linejoin="round"/>'
             )
@@ -241,12 +254,12 @@ def rasterize_shapes(
     shapes: Sequence[Polygon | Polyline | Circle],
     shape: tuple[int, int],
     *,
-    supersample: int = 4,
+    samples: int = 4,
     background: tuple = (1.0, 1.0, 1.0),
 ) -> Float[Array, "H W 3"]:
     """Rasterize vector shapes onto an `(H, W)` pixel grid (the raster side of `write_svg`).
 
-    Every pixel is sampled on a `supersample x supersample` grid of points; each sample
+    Every pixel is sampled on a `samples x samples` grid of points; each sample
     takes the colour of the last shape covering it (fill by the even-odd rule, strokes
     with round caps and joins), and the pixel is the mean of its samples (box-filter
     anti-aliasing). The coverage is a step function of the shape parameters, so this is
@@ -256,7 +269,7 @@ def rasterize_shapes(
 
     - `shapes`: `Polygon`, `Polyline` and `Circle` objects in pixel coordinates (y up).
     - `shape`: `(H, W)`.
-    - `supersample`: samples per pixel along each axis (static).
+    - `samples`: samples per pixel along each axis (static, `1..MAX_SUPERSAMPLE`).
     - `background`: RGB colour in [0, 1].
 
     **Returns:**
@@ -264,9 +277,9 @@ def rasterize_shapes(
     An `(H, W, 3)` float image in [0, 1].
     """
     height, width = checked_shape(shape)
-    s = static_int(supersample, "supersample", minimum=1, maximum=MAX_SUPERSAMPLE)
+    s = static_int(samples, "samples", minimum=1, maximum=MAX_SUPERSAMPLE)
     shapes = _check_shapes(shapes)
-    background = _colour(background, "background")
+    background = _required_colour(background, "background")
     return _rasterize(shapes, (height, width), s, background)
 
 
@@ -298,7 +311,7 @@ def _paint_shape(canvas, sh, samples, px, py, dtype):
         d = jnp.hypot(px - center[0], py - center[1])
         canvas = paint(canvas, d <= radius, sh.fill)
         return paint(canvas, jnp.abs(d - radius) <= sh.stroke_width / 2, sh.stroke)
-    pts = sh.points.astype(dtype)
+    pts = sh.vertices.astype(dtype)
     if isinstance(sh, Polygon):
         canvas = paint(canvas, even_odd(samples, pts), sh.fill)
         a, b = pts, jnp.roll(pts, -1, axis=0)

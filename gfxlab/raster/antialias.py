@@ -16,16 +16,16 @@ from .polygons import _check_vertices
 
 __all__ = ["MAX_SUPERSAMPLE", "supersample", "polygon_coverage", "line_coverage"]
 
-#: Largest `factor` of `supersample` (samples per pixel along each axis).
+#: Largest `samples` of `supersample` (samples per pixel along each axis).
 MAX_SUPERSAMPLE = 64
 
 
 def supersample(
-    fn: Callable[[jax.Array], jax.Array], shape: tuple[int, int], *, factor: int = 4
+    fn: Callable[[jax.Array], jax.Array], shape: tuple[int, int], *, samples: int = 4
 ) -> Float[Array, "H W"]:
-    """Anti-alias by supersampling: average `fn` over a `factor x factor` grid per pixel.
+    """Anti-alias by supersampling: average `fn` over a `samples x samples` grid per pixel.
 
-    `fn` is traced once per `(fn, shape, factor)` and the whole computation runs as one
+    `fn` is traced once per `(fn, shape, samples)` and the whole computation runs as one
     compiled call, so `fn` must be written with `jax.numpy`.
 
     **Arguments:**
@@ -33,32 +33,32 @@ def supersample(
     - `fn`: maps points `(..., 2)` in pixel coordinates to values `(...)` (booleans
       for an inside test, or intensities).
     - `shape`: the image shape `(H, W)` (static).
-    - `factor`: samples per pixel along each axis (static int in `1..MAX_SUPERSAMPLE`);
-      the samples sit at the centres of a regular `factor x factor` grid of sub-pixels.
+    - `samples`: samples per pixel along each axis (static int in `1..MAX_SUPERSAMPLE`);
+      the samples sit at the centres of a regular `samples x samples` grid of sub-pixels.
 
     **Returns:** a float `(H, W)` image: the mean of `fn` over each pixel's samples.
 
     >>> disc = lambda p: (p[..., 0] - 1.5) ** 2 + (p[..., 1] - 1.5) ** 2 < 1.5**2
-    >>> supersample(disc, (4, 4), factor=8).shape
+    >>> supersample(disc, (4, 4), samples=8).shape
     (4, 4)
     """
     if not callable(fn):
         raise TypeError(f"`fn` must be a function of points (..., 2), got {type(fn).__name__}")
     height, width = checked_shape(shape)
-    factor = static_int(factor, "factor", minimum=1, maximum=MAX_SUPERSAMPLE)
-    return _supersample(fn, (height, width), factor)
+    samples = static_int(samples, "samples", minimum=1, maximum=MAX_SUPERSAMPLE)
+    return _supersample(fn, (height, width), samples)
 
 
 @eqx.filter_jit  # `fn` may be a plain function or a pytree (an `eqx.Module` with arrays)
-def _supersample(fn, shape, factor):
-    return supersample_values(fn, shape, factor, jnp.result_type(float))
+def _supersample(fn, shape, samples):
+    return supersample_values(fn, shape, samples, jnp.result_type(float))
 
 
-def supersample_values(fn, shape: tuple[int, int], factor: int, dtype, *, trailing: int = 0):
-    """Inside a trace: the mean over each pixel's `factor x factor` samples of
-    `fn(points)`, points `(H, W, factor^2, 2)`; `fn` may add `trailing` value axes
+def supersample_values(fn, shape: tuple[int, int], samples: int, dtype, *, trailing: int = 0):
+    """Inside a trace: the mean over each pixel's `samples x samples` samples of
+    `fn(points)`, points `(H, W, samples^2, 2)`; `fn` may add `trailing` value axes
     (e.g. an RGB colour), which the result keeps: `(H, W, ...)`."""
-    samples = pixel_centers(shape, dtype)[:, :, None, :] + subpixel_offsets(factor, dtype)
+    samples = pixel_centers(shape, dtype)[:, :, None, :] + subpixel_offsets(samples, dtype)
     values = jnp.asarray(fn(samples))
     expected = samples.shape[:-1]
     if values.shape[:3] != expected or values.ndim != 3 + trailing:

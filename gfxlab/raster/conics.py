@@ -9,6 +9,8 @@ hundreds of radii at once. A circle's centre may be traced.
 
 from __future__ import annotations
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -18,6 +20,7 @@ from .._checks import check_shape, static_int
 
 __all__ = [
     "MAX_CIRCLE_RADIUS",
+    "MAX_CENTER_COORDINATE",
     "midpoint_circle",
     "midpoint_circle_steps",
     "midpoint_circle_trace",
@@ -31,6 +34,9 @@ __all__ = [
 MAX_CIRCLE_RADIUS = 16383
 #: Largest semi-axis of `midpoint_ellipse`: its exact integer tests use `4 rx^2 ry^2 < 2^31`.
 MAX_ELLIPSE_RADIUS = 128
+#: Largest `|x|` or `|y|` of a circle's or ellipse's integer centre (a documented limit:
+#: centre plus radius stays an int32).
+MAX_CENTER_COORDINATE = 2**30
 
 _INT = jnp.int32
 
@@ -84,6 +90,13 @@ def _check_center(center):
         raise TypeError(
             f"`center` must be integer pixel coordinates (x, y), got dtype {center.dtype}"
         )
+    if not isinstance(center, jax.core.Tracer) and np.any(
+        np.abs(np.asarray(center).astype(np.int64)) > MAX_CENTER_COORDINATE
+    ):
+        raise ValueError(
+            f"`center` must have |x|, |y| <= {MAX_CENTER_COORDINATE} (a documented limit: the "
+            f"pixels are int32), got {np.asarray(center).tolist()}"
+        )
     return center
 
 
@@ -126,6 +139,15 @@ def _circle_from_octant(octant: np.ndarray, radius: int, center: jax.Array) -> j
     return _offset(loop, center)
 
 
+@functools.lru_cache(maxsize=64)
+def _circle_loop(radius: int) -> np.ndarray:
+    """The pixels of the midpoint circle of `radius` about the origin (cached, read-only)."""
+    loop = _circle_from_octant(_static_circle_octant(radius), radius, np.zeros(2, np.int64))
+    loop = np.asarray(loop)
+    loop.flags.writeable = False
+    return loop
+
+
 def midpoint_circle(radius: int, *, center: tuple[int, int] = (0, 0)) -> Int[Array, "N 2"]:
     """The pixels of a circle by the midpoint circle algorithm, vectorized.
 
@@ -137,7 +159,8 @@ def midpoint_circle(radius: int, *, center: tuple[int, int] = (0, 0)) -> Int[Arr
     **Arguments:**
 
     - `radius`: the radius, a static int in `[0, MAX_CIRCLE_RADIUS]`.
-    - `center`: integer centre `(x, y)`; may be a traced integer array.
+    - `center`: integer centre `(x, y)` (`|x|, |y| <= MAX_CENTER_COORDINATE`); may be
+      a traced integer array.
 
     **Returns:** int32 `(N, 2)` unique pixel positions `(x, y)` in clockwise order,
     starting just right of the top pixel `(xc, yc + r)` and ending on it (for `r = 0`
@@ -147,7 +170,7 @@ def midpoint_circle(radius: int, *, center: tuple[int, int] = (0, 0)) -> Int[Arr
     radius = _check_radius(radius, "radius", MAX_CIRCLE_RADIUS)
     center = _check_center(center)
     # The pixels depend only on static ints: a constant of the trace, computed in NumPy.
-    return _circle_from_octant(_static_circle_octant(radius), radius, center)
+    return _offset(_circle_loop(radius), center)
 
 
 @jax.jit(static_argnames="length")  # compiled once per length
@@ -332,7 +355,8 @@ def midpoint_ellipse(rx: int, ry: int, *, center: tuple[int, int] = (0, 0)) -> I
     **Arguments:**
 
     - `rx`, `ry`: semi-axes, static ints in `[1, MAX_ELLIPSE_RADIUS]`.
-    - `center`: integer centre `(x, y)`; may be a traced integer array.
+    - `center`: integer centre `(x, y)` (`|x|, |y| <= MAX_CENTER_COORDINATE`); may be
+      a traced integer array.
 
     **Returns:** int32 `(N, 2)` unique pixel positions `(x, y)` in clockwise order.
     """

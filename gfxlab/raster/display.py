@@ -3,8 +3,9 @@ phosphor's persistence."""
 
 from __future__ import annotations
 
-from typing import NamedTuple
+import functools
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -24,17 +25,42 @@ _MAX_FRAME_WORK = 1 << 26
 _INT = jnp.int32
 
 
-class BeamPath(NamedTuple):
+class BeamPath(eqx.Module):
     """Where a CRT's electron beam is at each time step, and how bright it is.
 
-    - `positions`: `(T, 2)` beam position in pixel coordinates `(x, y)`, y up.
+    - `positions`: `(T, 2)` beam position in pixel coordinates `(x, y)`, y up (finite,
+      `T >= 1`).
     - `intensity`: `(T,)` beam intensity in `[0, 1]` (0 while blanked).
-    - `on`: `(T,)` whether the beam is switched on (off during retrace and moves).
+    - `on`: `(T,)` booleans: whether the beam is switched on (off during retrace and moves).
+
+    Checked at construction (value checks through `equinox.error_if` when traced).
     """
 
     positions: Float[Array, "T 2"]
     intensity: Float[Array, " T"]
     on: Bool[Array, " T"]
+
+    def __init__(self, positions, intensity, on):
+        positions = array_arg(positions, "positions", "beam positions (T, 2)")
+        check_shape(positions, "positions", (None, 2))
+        steps = positions.shape[0]
+        if steps < 1:
+            raise ValueError("`positions` must hold at least one time step, got shape (0, 2)")
+        intensity = array_arg(intensity, "intensity", "beam intensities (T,)")
+        on = array_arg(on, "on", "booleans (T,)")
+        for arr, name in ((intensity, "intensity"), (on, "on")):
+            if tuple(arr.shape) != (steps,):
+                raise ValueError(
+                    f"`{name}` must have shape (T,) = ({steps},), one entry per time step of "
+                    f"`positions`, got shape {tuple(arr.shape)}"
+                )
+        if on.dtype != np.bool_:
+            raise TypeError(f"`on` must be booleans, got dtype {on.dtype}")
+        intensity = finite_arg(intensity, "intensity")
+        intensity = range_check(intensity, "intensity", low=0, high=1, low_open=False)
+        self.positions = jnp.asarray(finite_arg(positions, "positions"))
+        self.intensity = jnp.asarray(intensity)
+        self.on = jnp.asarray(on)
 
 
 def _blanked_move(start: np.ndarray, end: np.ndarray, steps: int) -> np.ndarray:
@@ -73,6 +99,13 @@ def raster_scan(
     height, width = frame_buffer.shape
     h_retrace = static_int(h_retrace, "h_retrace", minimum=1, maximum=MAX_BEAM_STEPS)
     v_retrace = static_int(v_retrace, "v_retrace", minimum=1, maximum=MAX_BEAM_STEPS)
+    positions, on, flat = _raster_layout(height, width, bool(interlaced), h_retrace, v_retrace)
+    return _raster_beam(frame_buffer, positions, on, flat)
+
+
+@functools.lru_cache(maxsize=32)
+def _raster_layout(height: int, width: int, interlaced: bool, h_retrace: int, v_retrace: int):
+    """The beam's static path (positions, on, pixel index per step) in NumPy, cached."""
     if interlaced:
         fields = [np.arange(0, height, 2), np.arange(1, height, 2)]
     else:
@@ -108,7 +141,10 @@ def raster_scan(
         cols_all += [block_cols, np.zeros(v_retrace, int)]
     on = np.concatenate(on_all)
     flat = np.concatenate(rows_all) * width + np.concatenate(cols_all)
-    return _raster_beam(frame_buffer, np.concatenate(pos_all), on, flat)
+    positions = np.concatenate(pos_all)
+    for arr in (positions, on, flat):
+        arr.flags.writeable = False
+    return positions, on, flat
 
 
 @jax.jit

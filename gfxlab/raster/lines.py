@@ -15,6 +15,7 @@ from jaxtyping import Array, Bool, Int
 
 from .._checks import check_last_dim, static_int
 from .._pixels import checked_shape, pixel_to_index
+from ._args import array_arg
 
 __all__ = [
     "MAX_LINE_COORDINATE",
@@ -46,9 +47,7 @@ def points_to_image(points: Int[Array, "*batch N 2"], shape: tuple[int, int]) ->
     **Returns:** a boolean mask with `True` at every plotted pixel.
     """
     height, width = checked_shape(shape)
-    if points is None:
-        raise TypeError("`points` must be an integer array of pixel positions, got None")
-    points = jnp.asarray(points)
+    points = array_arg(points, "points", "an integer array of pixel positions")
     check_last_dim(points, "points", (2,), "pixel positions (x, y)")
     if not jnp.issubdtype(points.dtype, jnp.integer):
         raise TypeError(f"`points` must be integer pixel positions, got dtype {points.dtype}")

@@ -37,7 +37,7 @@ def inside_polygon(
 
     **Arguments:**
 
-    - `points`: `(..., 2)` query points.
+    - `points`: `(..., 2)` finite query points.
     - `vertices`: `(V, 2)` polygon vertices in order (closed implicitly, either
       orientation, self-intersections allowed), finite.
 
@@ -51,7 +51,7 @@ def inside_polygon(
     check_shape(vertices, "vertices", (None, 2))
     points = array_arg(points, "points")
     check_last_dim(points, "points", (2,), "points (x, y)")
-    return _inside_polygon(points, vertices)
+    return _inside_polygon(finite_arg(points, "points"), vertices)
 
 
 def even_odd(points, vertices):

@@ -2,13 +2,18 @@
 
 The projection is the camera's own (`Camera.to_pixels`, `Camera.project`, built on
 `gfxlab.transforms.apply`); this module only gathers the per-face quantities the
-rasterizers need and decides which faces can be drawn.
+rasterizers need, decides which faces can be drawn, and builds `screen_scene`, the
+screen-space triangle scene of the hidden-surface methods (`gfxlab.render.hsr`).
 """
 
 from __future__ import annotations
 
+import equinox as eqx
+import jax
 import jax.numpy as jnp
+from jaxtyping import Array, Float
 
+from .._checks import as_float, check_finite, check_shape, static_shape, value_error_if
 from ..mesh import Mesh
 from ..viewing import Camera
 from ._tiles import cross2
@@ -41,3 +46,42 @@ def project_faces(vertices, faces, camera: Camera, shape, *, cull_backfaces=Fals
     if cull_backfaces:
         valid = valid & (cross2(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]) > 0)
     return tri, 1.0 / w_safe[faces], ndc_z[faces], valid
+
+
+def screen_scene(
+    mesh: Mesh, camera: Camera, shape: tuple[int, int], *, light=None, ambient: float = 0.3
+) -> tuple[Float[Array, "F 3 3"], Float[Array, "F C"]]:
+    """A mesh seen by a camera as a screen-space triangle scene for the hard methods.
+
+    **Returns:** `(triangles, colors)`: `(F, 3, 3)` corners as (pixel x, pixel y, NDC z)
+    (NDC z is affine across each projected triangle, as the depth tests need; faces
+    crossing the near plane become zero-area triangles at the origin, which the methods
+    skip), and `(F, C)` face colours (the
+    mean of the vertex colours, white if none, shaded as in `soft_rasterize`: `light` is
+    None or a non-zero direction `(3,)`, `ambient` in [0, 1]).
+    """
+    height, width = static_shape(shape)
+    check_mesh_camera(mesh, camera)
+    dtype = mesh.vertices.dtype
+    if light is not None:
+        light = check_finite(as_float(light, "light").astype(dtype), "light")
+        check_shape(light, "light", (3,))
+        with jax.ensure_compile_time_eval():
+            zero = jnp.all(light == 0)
+        light = value_error_if(light, zero, "`light` must be a non-zero direction (3,)")
+    ambient = check_finite(as_float(ambient, "ambient").astype(dtype), "ambient")
+    check_shape(ambient, "ambient", ())
+    with jax.ensure_compile_time_eval():
+        out = (ambient < 0) | (ambient > 1)
+    ambient = value_error_if(ambient, out, "`ambient` must be in [0, 1]")
+    return _screen_scene(mesh, camera, light, ambient, (height, width))
+
+
+@eqx.filter_jit
+def _screen_scene(mesh, camera, light, ambient, shape):
+    from .soft import _flat_colors  # soft imports this module
+
+    tri, _, ndc_z, valid = project_faces(mesh.vertices, mesh.faces, camera, shape)
+    scene = jnp.concatenate([tri, ndc_z[..., None]], -1)
+    scene = jnp.where(valid[:, None, None], scene, 0.0)
+    return scene, _flat_colors(mesh, light, ambient).mean(axis=1)

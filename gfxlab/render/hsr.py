@@ -19,13 +19,18 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from .._checks import as_float, check_shape, common_float, static_shape
+from .._checks import (
+    as_float,
+    check_finite,
+    check_shape,
+    common_float,
+    static_shape,
+    value_error_if,
+)
 from .._pixels import pixel_centers
-from ..mesh import Mesh, check_colors
-from ..viewing import Camera
-from ._project import check_mesh_camera, project_faces
+from ..mesh import check_colors
+from ._project import screen_scene
 from ._tiles import cross2
-from .soft import _flat_colors
 
 __all__ = [
     "screen_scene",
@@ -59,6 +64,32 @@ class VisibilityResult(eqx.Module):
     counters: dict
     quadtree: tuple | None = None
 
+    def __init__(
+        self,
+        image: Float[Array, "H W C"],
+        depth: Float[Array, "H W"] | None,
+        counters: dict,
+        quadtree: tuple | None = None,
+    ):
+        image = as_float(image, "image")
+        check_shape(image, "image", (None, None, None))
+        if not 1 <= image.shape[2] <= 4:
+            raise ValueError(f"`image` must have 1 to 4 channels, got shape {tuple(image.shape)}")
+        self.image = check_finite(image, "image")
+        if depth is not None:
+            depth = as_float(depth, "depth")
+            check_shape(depth, "depth", image.shape[:2])
+            with jax.ensure_compile_time_eval():
+                bad = jnp.isnan(depth)
+            depth = value_error_if(depth, bad, "`depth` must not hold NaN (inf: nothing drawn)")
+        self.depth = depth
+        if not isinstance(counters, dict):
+            raise TypeError(f"`counters` must be a dict of counts, got {type(counters).__name__}")
+        self.counters = counters
+        if quadtree is not None and not isinstance(quadtree, tuple):
+            raise TypeError(f"`quadtree` must be a tuple of arrays or None, got {quadtree!r:.60}")
+        self.quadtree = quadtree
+
 
 #: Decision codes of `warnock`'s quadtree cells.
 WARNOCK_CODES = {
@@ -72,22 +103,41 @@ WARNOCK_CODES = {
 }
 
 
-def _prepare_scene(triangles, colors, shape, background):
+def _check_scene(triangles, colors, shape, background):
+    """The checks of every method, in Python: shapes, dtypes and finite values."""
     height, width = static_shape(shape)
     triangles, colors = common_float(triangles, colors, names=("triangles", "colors"))
     check_shape(triangles, "triangles", (None, 3, 3))
+    if colors.ndim == 2 and colors.shape[0] != triangles.shape[0]:
+        raise ValueError(
+            f"`colors` must hold one colour per triangle of `triangles`: {triangles.shape[0]} "
+            f"triangles, got colors of shape {tuple(colors.shape)}"
+        )
     colors = check_colors(colors, triangles.shape[0], per="triangle")
+    if not 1 <= colors.shape[1] <= 4:
+        raise ValueError(
+            f"`colors` must have 1 to 4 channels (grey, grey + alpha, RGB, RGBA), got shape "
+            f"{tuple(colors.shape)}"
+        )
     background = as_float(background, "background").astype(colors.dtype)
+    if background.ndim == 0:
+        background = jnp.broadcast_to(background, colors.shape[1:])
     check_shape(background, "background", (colors.shape[1],))
-    if triangles.shape[0] == 0:  # an empty scene: one skipped placeholder keeps shapes valid
-        triangles = jnp.full((1, 3, 3), jnp.nan, triangles.dtype)
+    triangles = check_finite(triangles, "triangles")
+    colors = check_finite(colors, "colors")
+    background = check_finite(background, "background")
+    return (height, width), triangles, colors, background
+
+
+def _scene(triangles, colors):
+    """Inside a method: the triangles to draw (an empty scene gets one skipped placeholder,
+    which keeps shapes valid) and which have an area (`valid`)."""
+    if triangles.shape[0] == 0:
+        triangles = jnp.zeros((1, 3, 3), triangles.dtype)
         colors = jnp.zeros((1, colors.shape[1]), colors.dtype)
-    finite = jnp.all(jnp.isfinite(triangles), axis=(1, 2))
-    triangles = jnp.where(finite[:, None, None], triangles, 0.0)
     xy = triangles[..., :2]
-    area2 = cross2(xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0])
-    valid = finite & (area2 != 0)
-    return (height, width), triangles, colors, background, valid
+    valid = cross2(xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0]) != 0
+    return triangles, colors, valid
 
 
 def _edge_functions(points, triangles):
@@ -134,7 +184,6 @@ def _int(x):
     return jnp.asarray(x, dtype=jnp.result_type(int))
 
 
-@functools.partial(jax.jit, static_argnames=("shape",))
 def zbuffer(
     triangles: Float[Array, "F 3 3"],
     colors: Float[Array, "F C"],
@@ -151,19 +200,20 @@ def zbuffer(
     **Arguments:**
 
     - `triangles`: `(F, 3, 3)` corners as (pixel x, pixel y, depth); smaller depth is
-      nearer. Triangles with non-finite coordinates or no area are skipped.
-    - `colors`: `(F, C)` one colour per triangle.
+      nearer; finite. Triangles with no area are skipped.
+    - `colors`: `(F, C)` one finite colour per triangle, `C` in 1..4.
     - `shape`: image shape `(H, W)`.
-    - `background`: background colour `(C,)` or a scalar.
+    - `background`: finite background colour `(C,)` or a scalar.
 
     **Returns:** a `VisibilityResult` with the image, the depth buffer and counters.
     """
-    colors = as_float(colors, "colors")
-    if colors.ndim == 2:
-        background = jnp.broadcast_to(as_float(background, "background"), colors.shape[1:])
-    shape, triangles, colors, background, valid = _prepare_scene(
-        triangles, colors, shape, background
-    )
+    shape, *arrays = _check_scene(triangles, colors, shape, background)
+    return _zbuffer(*arrays, shape=shape)
+
+
+@functools.partial(jax.jit, static_argnames=("shape",))
+def _zbuffer(triangles, colors, background, *, shape):
+    triangles, colors, valid = _scene(triangles, colors)
     grid = pixel_centers(shape, triangles.dtype)
 
     def draw(carry, face):
@@ -184,13 +234,6 @@ def zbuffer(
     memory = frame.size * frame.dtype.itemsize + depth.size * depth.dtype.itemsize
     counters = {"memory_bytes": _int(memory), "depth_tests": tests, "polygon_tests": _int(0)}
     return VisibilityResult(frame, depth, counters)
-
-
-def _with_background(colors, background):
-    colors = as_float(colors, "colors")
-    if colors.ndim == 2:
-        return jnp.broadcast_to(as_float(background, "background"), colors.shape[1:])
-    return background
 
 
 def _obscures(triangles, valid):
@@ -238,7 +281,6 @@ def _obscures(triangles, valid):
     return candidates & nearer, jnp.sum(candidates)
 
 
-@functools.partial(jax.jit, static_argnames=("shape",))
 def painter(
     triangles: Float[Array, "F 3 3"],
     colors: Float[Array, "F C"],
@@ -257,10 +299,13 @@ def painter(
 
     Arguments and result as for `zbuffer`; there is no depth buffer (`depth` is None).
     """
-    background = _with_background(colors, background)
-    shape, triangles, colors, background, valid = _prepare_scene(
-        triangles, colors, shape, background
-    )
+    shape, *arrays = _check_scene(triangles, colors, shape, background)
+    return _painter(*arrays, shape=shape)
+
+
+@functools.partial(jax.jit, static_argnames=("shape",))
+def _painter(triangles, colors, background, *, shape):
+    triangles, colors, valid = _scene(triangles, colors)
     count = triangles.shape[0]
     obscures, exact_tests = _obscures(triangles, valid)
 
@@ -350,7 +395,6 @@ def _warnock_decide(rects, triangles, valid, active, bottom):
     return code, cell_owner, first_rel, n_rel, n_sur, undecided
 
 
-@functools.partial(jax.jit, static_argnames=("shape",))
 def warnock(
     triangles: Float[Array, "F 3 3"],
     colors: Float[Array, "F C"],
@@ -373,10 +417,14 @@ def warnock(
     decision code (`WARNOCK_CODES`) of every cell at every level, for overlays
     (`quadtree_cells`).
     """
-    background = _with_background(colors, background)
-    (height, width), triangles, colors, background, valid = _prepare_scene(
-        triangles, colors, shape, background
-    )
+    shape, *arrays = _check_scene(triangles, colors, shape, background)
+    return _warnock(*arrays, shape=shape)
+
+
+@functools.partial(jax.jit, static_argnames=("shape",))
+def _warnock(triangles, colors, background, *, shape):
+    triangles, colors, valid = _scene(triangles, colors)
+    height, width = shape
     levels = max(0, math.ceil(math.log2(max(height, width))))
     size = 2**levels
     grid = pixel_centers((size, size), triangles.dtype).at[..., 1].add(height - size)
@@ -461,7 +509,6 @@ def quadtree_cells(quadtree, shape: tuple[int, int]) -> np.ndarray:
     return np.concatenate(rows) if rows else np.zeros((0, 6))
 
 
-@functools.partial(jax.jit, static_argnames=("shape",))
 def raycast(
     triangles: Float[Array, "F 3 3"],
     colors: Float[Array, "F C"],
@@ -478,10 +525,13 @@ def raycast(
     Counters: `polygon_tests` (ray-polygon intersection tests) and `depth_tests`
     (comparisons of hits along a ray).
     """
-    background = _with_background(colors, background)
-    shape, triangles, colors, background, valid = _prepare_scene(
-        triangles, colors, shape, background
-    )
+    shape, *arrays = _check_scene(triangles, colors, shape, background)
+    return _raycast(*arrays, shape=shape)
+
+
+@functools.partial(jax.jit, static_argnames=("shape",))
+def _raycast(triangles, colors, background, *, shape):
+    triangles, colors, valid = _scene(triangles, colors)
     owner, _, hits = _nearest(pixel_centers(shape, triangles.dtype), triangles, valid)
     image = _compose(owner, colors, background)
     database = triangles.size * triangles.dtype.itemsize + colors.size * colors.dtype.itemsize
@@ -493,7 +543,6 @@ def raycast(
     return VisibilityResult(image, None, counters)
 
 
-@functools.partial(jax.jit, static_argnames=("shape",))
 def scanline(
     triangles: Float[Array, "F 3 3"],
     colors: Float[Array, "F C"],
@@ -510,10 +559,14 @@ def scanline(
 
     Arguments as for `zbuffer`; no full depth buffer (`depth` is None).
     """
-    background = _with_background(colors, background)
-    (height, width), triangles, colors, background, valid = _prepare_scene(
-        triangles, colors, shape, background
-    )
+    shape, *arrays = _check_scene(triangles, colors, shape, background)
+    return _scanline(*arrays, shape=shape)
+
+
+@functools.partial(jax.jit, static_argnames=("shape",))
+def _scanline(triangles, colors, background, *, shape):
+    triangles, colors, valid = _scene(triangles, colors)
+    height, width = shape
     xs = jnp.arange(width, dtype=triangles.dtype)
     start = triangles[..., :2]
     end = jnp.roll(start, -1, axis=-2)
@@ -545,21 +598,3 @@ def scanline(
     memory = image.size * image.dtype.itemsize + width * itemsize + edge_table
     counters = {"memory_bytes": _int(memory), "depth_tests": tests, "polygon_tests": spans}
     return VisibilityResult(image, None, counters)
-
-
-def screen_scene(
-    mesh: Mesh, camera: Camera, shape: tuple[int, int], *, light=None, ambient: float = 0.3
-) -> tuple[Float[Array, "F 3 3"], Float[Array, "F C"]]:
-    """A mesh seen by a camera as a screen-space triangle scene for the hard methods.
-
-    **Returns:** `(triangles, colors)`: `(F, 3, 3)` corners as (pixel x, pixel y, NDC z)
-    (NDC z is affine across each projected triangle, as the depth tests need; faces
-    crossing the near plane get NaN and are skipped), and `(F, C)` face colours (the
-    mean of the vertex colours, white if none, shaded as in `soft_rasterize`).
-    """
-    height, width = static_shape(shape)
-    check_mesh_camera(mesh, camera)
-    tri, _, ndc_z, valid = project_faces(mesh.vertices, mesh.faces, camera, (height, width))
-    scene = jnp.concatenate([tri, ndc_z[..., None]], -1)
-    scene = jnp.where(valid[:, None, None], scene, jnp.nan)
-    return scene, _flat_colors(mesh, light, ambient).mean(axis=1)

@@ -19,7 +19,15 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .._checks import as_float, check_last_dim, check_shape, safe_norm, value_error_if
+from .._checks import (
+    as_float,
+    check_finite,
+    check_last_dim,
+    check_shape,
+    finite_float,
+    safe_norm,
+    value_error_if,
+)
 from ..brdf import Lambert
 
 __all__ = ["PointLight", "DirectionalLight", "shade", "sample_texture"]
@@ -89,6 +97,7 @@ def _unit_or(v, fallback):
 
 
 def _check_lights(lights):
+    """The lights as a tuple (None stays None: `render`'s "no shading")."""
     if lights is None:
         return None
     if isinstance(lights, PointLight | DirectionalLight):
@@ -117,31 +126,49 @@ def shade(
 
     **Arguments:**
 
-    - `albedo`: `(..., C)` colours; `normal` `(..., 3)` (normalised here; zero normals
+    - `albedo`: `(..., C)` colours, `C` in 1..4; `normal` `(..., 3)` (normalised here; zero normals
       face the viewer); `position` `(..., 3)` world positions; `eye` the camera position.
-    - `lights`: a light or a sequence of `PointLight` / `DirectionalLight`.
+    - `lights`: a light or a sequence of `PointLight` / `DirectionalLight` (`()`: none).
     - `brdf`: a `gfxlab.brdf` model (default `Lambert()`).
     - `ambient`: ambient term (scalar or `(C,)`).
 
     **Returns:** `(..., C)` radiance.
     """
     albedo, normal, position = (
-        as_float(a, n) for a, n in ((albedo, "albedo"), (normal, "normal"), (position, "position"))
+        finite_float(a, n)
+        for a, n in ((albedo, "albedo"), (normal, "normal"), (position, "position"))
     )
+    check_last_dim(albedo, "albedo", (1, 2, 3, 4), "1 to 4 colour channels")
     check_last_dim(normal, "normal", (3,))
     check_last_dim(position, "position", (3,))
+    if lights is None:
+        raise TypeError(
+            "`lights` must be a PointLight, a DirectionalLight or a sequence of them (`()` for "
+            "none), got None"
+        )
     lights = _check_lights(lights)
     brdf = Lambert() if brdf is None else brdf
     if not callable(brdf):
         raise TypeError(f"`brdf` must be a gfxlab.brdf model, got {type(brdf).__name__}")
     dtype = albedo.dtype
-    eye = as_float(eye, "eye").astype(dtype)
+    eye = finite_float(eye, "eye").astype(dtype)
+    check_shape(eye, "eye", (3,))
+    ambient = finite_float(ambient, "ambient").astype(dtype)
+    if ambient.ndim > 1:
+        raise ValueError(f"`ambient` must be a scalar or a colour (C,), got shape {ambient.shape}")
+    return _shade(albedo, normal.astype(dtype), position.astype(dtype), eye, ambient, lights, brdf)
+
+
+@eqx.filter_jit
+def _shade(albedo, normal, position, eye, ambient, lights, brdf):
+    """The radiance of `shade` on checked arrays (no checks: for use inside a trace)."""
+    dtype = albedo.dtype
     up = jnp.array([0.0, 0.0, 1.0], dtype)
     wo = _unit_or(eye - position, up)
     n = _unit_or(normal, wo)
     n = jnp.where(jnp.sum(n * wo, -1, keepdims=True) < 0, -n, n)  # two-sided
-    radiance = as_float(ambient, "ambient").astype(dtype) * albedo
-    for light in lights or ():
+    radiance = ambient * albedo
+    for light in lights:
         wi, irradiance = light.incident(position)
         f = brdf(wi, wo, n)
         cos = jnp.maximum(jnp.sum(n * wi, -1), 0.0)
@@ -158,11 +185,26 @@ def sample_texture(
     (OBJ `vt` convention; row 0 of `texture` is the top). Texel centres sit at
     `((col + 1/2) / Wt, 1 - (row + 1/2) / Ht)`; outside the image the edge texels repeat
     (clamp to edge).
+
+    **Arguments:** `texture` `(Ht, Wt, C)`, finite, 1 to 4 channels; `uv` `(..., 2)` finite.
+
+    **Returns:** `(..., C)` colours.
     """
     texture = as_float(texture, "texture")
     check_shape(texture, "texture", (None, None, None))
+    if 0 in texture.shape[:2] or not 1 <= texture.shape[2] <= 4:
+        raise ValueError(
+            "`texture` must have shape (Ht, Wt, C) with Ht, Wt >= 1 and 1 to 4 channels, got "
+            f"shape {tuple(texture.shape)}"
+        )
     uv = as_float(uv, "uv").astype(texture.dtype)
     check_last_dim(uv, "uv", (2,), "texture coordinates (u, v)")
+    return _sample_texture(check_finite(texture, "texture"), check_finite(uv, "uv"))
+
+
+@jax.jit
+def _sample_texture(texture, uv):
+    """The lookup of `sample_texture` on checked arrays (no checks: for use in a trace)."""
     height, width = texture.shape[:2]
     # texel space, y up (the pixel convention of gfxlab._pixels), then array rows
     x = jnp.clip(uv[..., 0] * width - 0.5, 0.0, width - 1.0)
