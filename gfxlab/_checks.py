@@ -104,6 +104,22 @@ def as_float(x, name: str = "x") -> jax.Array:
     return arr
 
 
+def as_numeric(x, name: str = "x") -> jax.Array:
+    """`x` as a JAX array of integers or finite floats, keeping its dtype (indices,
+    positions). `None`, strings and non-numbers raise `TypeError` naming the argument."""
+    if isinstance(x, jax.Array) and jnp.issubdtype(x.dtype, jnp.integer):
+        return x
+    if x is None or isinstance(x, str | bytes):
+        raise TypeError(f"`{name}` must be an array of numbers, got {type(x).__name__}")
+    try:
+        arr = jnp.asarray(x)
+    except (TypeError, ValueError, OverflowError) as err:
+        raise TypeError(f"`{name}` must be an array of numbers, got {type(x).__name__}") from err
+    if jnp.issubdtype(arr.dtype, jnp.integer):
+        return arr
+    return check_finite(as_float(arr, name), name)
+
+
 def common_float(*arrays, names: Sequence[str]) -> list[jax.Array]:
     """Several arrays as floats promoted to one common dtype."""
     arrays = [as_float(a, n) for a, n in zip(arrays, names, strict=True)]

@@ -18,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
-from ._checks import check_last_dim, static_int, static_shape
+from ._checks import as_numeric, check_last_dim, static_int, static_shape
 
 __all__ = [
     "pixel_to_index",
@@ -48,7 +48,7 @@ def pixel_to_index(xy: Int[Array, "*batch 2"], shape: tuple[int, int]) -> Int[Ar
     **Returns:** `(row, col)` indices, shape `(..., 2)`.
     """
     height, _ = static_shape(shape)
-    xy = jnp.asarray(xy)
+    xy = as_numeric(xy, "xy")
     check_last_dim(xy, "xy", (2,), "pixel positions (x, y)")
     return jnp.stack([height - 1 - xy[..., 1], xy[..., 0]], axis=-1)
 
@@ -64,7 +64,7 @@ def index_to_pixel(rc: Int[Array, "*batch 2"], shape: tuple[int, int]) -> Int[Ar
     **Returns:** `(x, y)` pixel positions, shape `(..., 2)`.
     """
     height, _ = static_shape(shape)
-    rc = jnp.asarray(rc)
+    rc = as_numeric(rc, "rc")
     check_last_dim(rc, "rc", (2,), "array indices (row, col)")
     return jnp.stack([rc[..., 1], height - 1 - rc[..., 0]], axis=-1)
 

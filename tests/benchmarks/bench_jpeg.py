@@ -37,7 +37,7 @@ def _scene(height: int, width: int, seed: int) -> np.ndarray:
     try:
         from gfxlab.image import synthetic_scene
 
-        img = np.asarray(synthetic_scene((height, width), seed=seed))
+        img = np.asarray(synthetic_scene((height, width), key=jax.random.key(seed)))
         return (
             np.clip(np.round(img * 255), 0, 255).astype(np.uint8) if img.dtype != np.uint8 else img
         )
