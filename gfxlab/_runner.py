@@ -8,7 +8,7 @@ lab and writes an `index.html` gallery next to the pages.
 
 The kernels get the JAX persistent compilation cache (`jax_cache_dir()`), so a second
 run of a lab skips most XLA compilation, and `GFXLAB_HEADLESS=1`, which makes
-`interact` show a slider figure's default picture once instead of a widget.
+`gfxlab.labs.interact` show a slider figure's default picture once instead of a widget.
 """
 
 from __future__ import annotations
@@ -23,10 +23,10 @@ import sys
 import tempfile
 import time
 
+from .labs import HEADLESS_ENV  # set to "1" in the kernels the runner starts
+
 #: Environment variable overriding where the JAX compilation cache lives.
 CACHE_ENV = "GFXLAB_JAX_CACHE"
-#: Set (to "1") in the kernels the runner starts: no live frontend is attached.
-HEADLESS_ENV = "GFXLAB_HEADLESS"
 
 
 def labs_dir() -> pathlib.Path:
@@ -40,14 +40,16 @@ def labs_dir() -> pathlib.Path:
 
 
 def jax_cache_dir() -> pathlib.Path:
-    """The user's JAX compilation cache: `$GFXLAB_JAX_CACHE`, else `~/.cache/gfxlab/jax`.
+    """The user's JAX compilation cache: `$GFXLAB_JAX_CACHE`, else JAX's own
+    `$JAX_COMPILATION_CACHE_DIR`, else `~/.cache/gfxlab/jax`.
 
     (`$XDG_CACHE_HOME/gfxlab/jax` when `XDG_CACHE_HOME` is set.) It is private to the
     user running the labs; nothing else reads it.
     """
-    env = os.environ.get(CACHE_ENV)
-    if env:
-        return pathlib.Path(env).expanduser()
+    for name in (CACHE_ENV, "JAX_COMPILATION_CACHE_DIR"):
+        env = os.environ.get(name)
+        if env:
+            return pathlib.Path(env).expanduser()
     base = os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache"
     return pathlib.Path(base) / "gfxlab" / "jax"
 
@@ -66,22 +68,6 @@ def kernel_env(*, cache: bool = True) -> dict[str, str]:
         # most of a lab's many small ones, which together take most of its time).
         env.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0")
     return env
-
-
-def interact(fn, /, **controls) -> None:
-    """A figure with sliders: `ipywidgets.interact(fn, **controls)` in a live notebook.
-
-    In a headless run (the lab runner, CI) there is nobody to move a slider and the
-    widget's output would not reach the HTML copy, so `fn` is called once with each
-    control's default value (`widget.value`, or the value itself for a fixed argument)
-    and its picture appears once.
-    """
-    if os.environ.get(HEADLESS_ENV) == "1":
-        fn(**{name: getattr(c, "value", c) for name, c in controls.items()})
-        return
-    import ipywidgets
-
-    ipywidgets.interact(fn, **controls)
 
 
 def list_labs(directory: pathlib.Path | None = None) -> list[pathlib.Path]:

@@ -39,3 +39,14 @@ def test_lab_runs_top_to_bottom(lab, labs_out):
     assert html.is_file() and html.stat().st_size > 10_000
     assert (labs_out / lab.name).is_file(), "the executed notebook is kept for the docs"
     assert seconds < BUDGET, f"{lab.name} took {seconds:.0f} s"
+
+
+def test_labs_use_the_public_slider_helper():
+    """Sliders go through `gfxlab.labs.interact` (one picture headless), never the private
+    runner or a bare `ipywidgets.interact` (whose output a headless copy would lose)."""
+    for lab in LABS:
+        text = lab.read_text(encoding="utf-8")
+        assert "gfxlab._runner" not in text, lab.name
+        if "Slider(" in text:
+            assert "from gfxlab.labs import interact" in text, lab.name
+            assert "widgets.interact(" not in text and "widgets.Output(" not in text, lab.name

@@ -12,6 +12,7 @@ import sys
 import nbformat
 import pytest
 
+import gfxlab.labs as glabs
 from gfxlab import _runner
 
 # A 1x1 GIF, to check that animations embedded as <img> survive into the HTML copy.
@@ -132,10 +133,13 @@ def test_cli_rejects_a_bad_timeout_and_an_unknown_lab(labs):
 
 def test_jax_cache_dir_is_the_users_and_overridable(monkeypatch, tmp_path):
     monkeypatch.delenv(_runner.CACHE_ENV, raising=False)
+    monkeypatch.delenv("JAX_COMPILATION_CACHE_DIR", raising=False)
     monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
     assert _runner.jax_cache_dir() == pathlib.Path.home() / ".cache" / "gfxlab" / "jax"
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     assert _runner.jax_cache_dir() == tmp_path / "xdg" / "gfxlab" / "jax"
+    monkeypatch.setenv("JAX_COMPILATION_CACHE_DIR", str(tmp_path / "jax-own"))
+    assert _runner.jax_cache_dir() == tmp_path / "jax-own"  # e.g. a cold cache for timing
     monkeypatch.setenv(_runner.CACHE_ENV, str(tmp_path / "mine"))
     env = _runner.kernel_env()
     assert env["JAX_COMPILATION_CACHE_DIR"] == str(tmp_path / "mine")
@@ -143,15 +147,64 @@ def test_jax_cache_dir_is_the_users_and_overridable(monkeypatch, tmp_path):
     assert "JAX_COMPILATION_CACHE_DIR" not in _runner.kernel_env(cache=False)
 
 
+def test_the_runner_marks_its_kernels_headless():
+    assert _runner.HEADLESS_ENV == glabs.HEADLESS_ENV
+    assert _runner.kernel_env(cache=False)[glabs.HEADLESS_ENV] == "1"
+
+
 def test_interact_shows_the_default_picture_once_when_headless(monkeypatch):
     import ipywidgets
 
     calls = []
-    monkeypatch.setenv(_runner.HEADLESS_ENV, "1")
-    _runner.interact(
-        lambda a, b, c: calls.append((a, b, c)),
+
+    def draw(a, b, c, d=0.5):
+        calls.append((a, b, c, d))
+        return a + b
+
+    monkeypatch.setenv(glabs.HEADLESS_ENV, "1")
+    assert glabs.headless()
+    result = glabs.interact(
+        draw,
         a=ipywidgets.FloatSlider(value=0.25, min=0, max=1),
-        b=3,
+        b=3,  # an abbreviation: a slider starting at 3
         c=ipywidgets.fixed(7),
     )
-    assert calls == [(0.25, 3, 7)]
+    assert calls == [(0.25, 3, 7, 0.5)] and result == 3.25
+    calls.clear()
+    assert glabs.interact(draw, a=(0.0, 2.0, 0.5), b=ipywidgets.fixed(1), c=[4, 5]) == 2.0
+    assert calls == [(1.0, 1, 4, 0.5)]  # a slider's middle, a drop-down's first entry
+
+
+def test_interact_in_a_live_notebook_shows_widgets_and_draws_once(monkeypatch, capsys):
+    calls = []
+    monkeypatch.delenv(glabs.HEADLESS_ENV, raising=False)
+    assert not glabs.headless()
+    assert glabs.interact(lambda x=2.0: calls.append(x) or x * 10, x=(0.0, 4.0)) == 20.0
+    assert calls == [2.0]
+    assert "interactive" in capsys.readouterr().out  # the panel (repr outside IPython)
+    assert glabs.interact(lambda x: calls.append(x), manual=True, x=(0.0, 4.0)) is None
+    assert calls == [2.0], "manual: nothing is drawn before the button is pressed"
+
+
+@pytest.mark.parametrize("headless", ["1", ""])
+def test_interact_rejects_bad_input(monkeypatch, headless):
+    monkeypatch.setenv(glabs.HEADLESS_ENV, headless)
+    with pytest.raises(TypeError, match="`fn` must be a function"):
+        glabs.interact(None, x=1)
+    with pytest.raises(TypeError, match="`manual` must be True or False"):
+        glabs.interact(lambda x: x, manual="yes", x=1)
+    with pytest.raises(TypeError, match=r"\['y'\] name no argument of `fn`"):
+        glabs.interact(lambda x: x, x=1, y=2)
+    with pytest.raises(ValueError, match="cannot find widget or abbreviation"):
+        glabs.interact(lambda x, y: x, x=1)
+    with pytest.raises(ValueError):
+        glabs.interact(lambda x: x, x=object())
+
+
+def test_import_gfxlab_labs_is_light():
+    code = (
+        "import sys, gfxlab, gfxlab.labs\n"
+        "heavy = [m for m in ('ipywidgets', 'matplotlib', 'jax', 'IPython') if m in sys.modules]\n"
+        "assert not heavy, heavy"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
