@@ -211,6 +211,9 @@ def _setup(fn, params, fixed, bounds):
 
 @eqx.filter_jit
 def _describe(problem, z, args):
+    """Whether `fn` returns a scalar, and its output structure. Only static values come
+    out, so the compiled program is empty (the initial loss comes from the first compiled
+    step); `filter_jit` caches the trace for a refit."""
     out = problem.output(z, args)
     leaves = jax.tree_util.tree_leaves(out)
     if not leaves or not all(eqx.is_array(v) for v in leaves):
@@ -219,7 +222,7 @@ def _describe(problem, z, args):
         )
     scalar = len(leaves) == 1 and leaves[0].shape == ()
     struct = jax.tree_util.tree_map(lambda v: jax.ShapeDtypeStruct(v.shape, v.dtype), out)
-    return _loss_from_output(out), scalar, struct
+    return scalar, struct
 
 
 # ------------------------------------------------------------------ compiled steps
@@ -263,8 +266,8 @@ def _optax_chunk(problem, optimizer, state, args, n):
     (z, opt_state, best, i), losses = jax.lax.scan(step, state, None, length=n)
     last = problem.loss(z, args)
     best = _keep_best(best, z, last, i)
-    losses = jnp.concatenate([losses[1:], last[None]])
-    return (z, opt_state, best, i), losses, jnp.zeros(losses.shape, bool)
+    entry, losses = losses[0], jnp.concatenate([losses[1:], last[None]])
+    return (z, opt_state, best, i), losses, jnp.zeros(losses.shape, bool), entry
 
 
 def _optimistix_fn(problem, least_squares: bool, scalar: bool):
@@ -284,8 +287,9 @@ def _solver_state(problem, solver, z, args, f_struct, least_squares, scalar):
 
 @eqx.filter_jit
 def _optimistix_init(problem, solver, z, args, f_struct, least_squares, scalar):
+    """The solver state's arrays, and the loss at the start."""
     _, state = _solver_state(problem, solver, z, args, f_struct, least_squares, scalar)
-    return eqx.filter(state, eqx.is_array)
+    return eqx.filter(state, eqx.is_array), problem.loss(z, args)
 
 
 @eqx.filter_jit
@@ -310,7 +314,7 @@ def _optimistix_chunk(problem, solver, state, args, f_struct, least_squares, sca
         return (z, s_arrays, done | finished, best, i + 1), (loss, done | finished)
 
     carry, (losses, dones) = jax.lax.scan(step, (z0, s_arrays0, done0, best0, i0), None, length=n)
-    return carry, losses, dones
+    return carry, losses, dones, None
 
 
 # ----------------------------------------------------------------------- the driver
@@ -359,7 +363,8 @@ def _check_finite(losses, start_step: int, method: str) -> None:
 
 
 def _runner(problem, method, z, args, scalar, f_struct, options):
-    """(name, initial state, run(state, n) -> (state, losses, dones), uses_solver_test)."""
+    """(name, initial state, run(state, n) -> (state, losses, dones, entry loss or None),
+    uses_solver_test, the initial loss or None when the first `run` gives it)."""
     learning_rate, rtol, atol = options
     if method is None:
         method = "bfgs" if scalar else "levenberg_marquardt"
@@ -368,7 +373,7 @@ def _runner(problem, method, z, args, scalar, f_struct, options):
         optimizer = method if not isinstance(method, str) else _named_optax(method, learning_rate)
         best = (z, jnp.asarray(jnp.inf), jnp.asarray(0))
         state = (z, optimizer.init(z), best, jnp.asarray(0))
-        return name, state, functools.partial(_optax_chunk, problem, optimizer), False
+        return name, state, functools.partial(_optax_chunk, problem, optimizer), False, None
     solver = method if not isinstance(method, str) else _named_optimistix(method, rtol, atol)
     least_squares = isinstance(solver, optx.AbstractLeastSquaresSolver)
     if least_squares and scalar:
@@ -379,22 +384,29 @@ def _runner(problem, method, z, args, scalar, f_struct, options):
         )
     if not least_squares:
         f_struct = jax.ShapeDtypeStruct((), jnp.result_type(*jax.tree_util.tree_leaves(f_struct)))
-    s_arrays = _optimistix_init(problem, solver, z, args, f_struct, least_squares, scalar)
+    s_arrays, initial_loss = _optimistix_init(
+        problem, solver, z, args, f_struct, least_squares, scalar
+    )
     best = (z, jnp.asarray(jnp.inf), jnp.asarray(0))
     state = (z, s_arrays, jnp.asarray(False), best, jnp.asarray(0))
 
     def run(state, args, n):
         return _optimistix_chunk(problem, solver, state, args, f_struct, least_squares, scalar, n)
 
-    return name, state, run, True
+    return name, state, run, True, initial_loss
 
 
-def _drive(run, state, args, max_steps, chunk_size, solver_test, name, bar):
-    """Run compiled chunks until `max_steps` or convergence; check each for NaN/inf."""
+def _drive(run, state, args, max_steps, chunk_size, solver_test, name, bar, initial_loss):
+    """Run compiled chunks until `max_steps` or convergence; check each for NaN/inf.
+    Returns the state, the loss history (the initial loss first) and convergence."""
     history, steps_done, converged = [], 0, False
+    if initial_loss is not None:
+        history.append(_initial(initial_loss, name, bar))
     while steps_done < max_steps:
         n = min(chunk_size, max_steps - steps_done)
-        state, losses, dones = run(state, args, n)
+        state, losses, dones, entry = run(state, args, n)
+        if not history:
+            history.append(_initial(entry, name, bar))
         losses, dones = np.asarray(losses), np.asarray(dones)
         if solver_test and dones.any():  # steps after convergence repeat the loss
             losses, converged = losses[: int(np.argmax(dones)) + 1], True
@@ -404,7 +416,14 @@ def _drive(run, state, args, max_steps, chunk_size, solver_test, name, bar):
         bar.update(steps_done, float(losses[-1]), done=converged or steps_done >= max_steps)
         if converged:
             break
-    return state, history, converged
+    return state, np.concatenate(history), converged
+
+
+def _initial(loss, name: str, bar: _Progress) -> np.ndarray:
+    loss = np.asarray(loss)[None]
+    _check_finite(loss, 0, name)
+    bar.update(0, float(loss[0]))
+    return loss
 
 
 def fit(
@@ -477,22 +496,22 @@ def fit(
     )
     problem, z = _setup(fn, params, fixed, bounds)
     try:
-        initial_loss, scalar, f_struct = _describe(problem, z, args)
+        scalar, f_struct = _describe(problem, z, args)
     except FitError:
         raise
     except Exception as err:
         raise FitError(f"calling `fn` with the initial parameters failed: {err}") from err
-    name, state, run, solver_test = _runner(problem, method, z, args, scalar, f_struct, options)
-    _check_finite(initial_loss[None], 0, name)
+    name, state, run, solver_test, initial = _runner(
+        problem, method, z, args, scalar, f_struct, options
+    )
     if chunk_size is None:
         chunk_size = max(1, max_steps // 20) if progress else max_steps
     bar = _Progress(progress, max_steps, name)
-    bar.update(0, float(initial_loss))
-    state, history, converged = _drive(
-        run, state, args, max_steps, min(chunk_size, max_steps), solver_test, name, bar
+    state, loss_history, converged = _drive(
+        run, state, args, max_steps, min(chunk_size, max_steps), solver_test, name, bar, initial
     )
+    initial_loss = loss_history[0]
     best_z, best_loss, best_step = state[-2]
-    loss_history = np.concatenate([np.asarray(initial_loss)[None], *history])
     best_step = int(best_step) if np.isfinite(float(best_loss)) else 0
     if float(initial_loss) <= loss_history[best_step]:
         best_z, best_step = z, 0  # the start is as good as anything seen
