@@ -53,14 +53,16 @@ def test_tables_are_colour_sciences_exactly():
     np.testing.assert_array_equal(np.asarray(d65), colour.SDS_ILLUMINANTS["D65"].values)
 
 
-def test_falls_back_to_colour_when_the_table_is_missing(monkeypatch, tmp_path):
-    monkeypatch.setattr(color, "DATA_DIR", tmp_path)
-    color._tables.cache_clear()
-    try:
-        np.testing.assert_array_equal(np.asarray(color.cmfs()), CMFS.values)
-        np.testing.assert_array_equal(np.asarray(color.v_lambda()), LEF.values)
-    finally:
-        color._tables.cache_clear()
+def test_tables_on_the_grid_are_exact_and_never_import_colour():
+    code = (
+        "import sys, numpy as np; from gfxlab import color; "
+        "wl = color.CIE_WAVELENGTHS; "
+        "assert np.array_equal(np.asarray(color.cmfs(wl)), np.asarray(color.cmfs())); "
+        "assert np.array_equal(np.asarray(color.v_lambda(wl[::5])), np.asarray(color.v_lambda())[::5]); "
+        "color.spectrum_to_xyz(wl, wl * 0 + 1.0); color.illuminant_d65(); "
+        "assert 'colour' not in sys.modules"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
 
 
 def test_interpolation_off_grid_and_zero_outside():
