@@ -179,7 +179,7 @@ BAD_CALLS = [
     (lambda: brdf.reciprocity_error(None), TypeError, "`brdf`"),
     (lambda: brdf.reciprocity_error(brdf.Lambert(), NAN3, UP), ValueError, "`wi` must be finite"),
     (lambda: brdf.reciprocity_error(brdf.Lambert(), n=np.ones(2)), ValueError, "`n` must have"),
-    (lambda: brdf.reciprocity_error(brdf.Lambert(), seed=None), TypeError, "`seed`"),
+    (lambda: brdf.reciprocity_error(brdf.Lambert(), key=7), TypeError, "`key`"),
     (lambda: brdf.reciprocity_error(brdf.Lambert(), num_samples=10**9), ValueError, "num_samples"),
     (lambda: brdf.directional_albedo("lambert", UP), TypeError, "`brdf`"),
     (lambda: brdf.directional_albedo(brdf.Lambert(), None), TypeError, "`wo`"),

@@ -2,13 +2,22 @@
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .._checks import as_float, check_finite, check_last_dim, finite_float, value_error_if
+from .._checks import (
+    as_float,
+    check_finite,
+    check_last_dim,
+    check_message,
+    checked_jit,
+    value_error_if,
+)
 
 BRDF = Callable[[jax.Array, jax.Array, jax.Array], jax.Array]
 
@@ -34,8 +43,7 @@ def _unit_tolerance(dtype) -> float:
 
 
 def _unit_vectors(v: jax.Array, name: str) -> jax.Array:
-    """Check that `v` holds finite 3D unit vectors (last axis 3, length 1 within a tolerance)."""
-    check_last_dim(v, name, (3,), "3D direction vectors")
+    """Value checks (traceable) of 3D unit vectors: finite, length 1 within a tolerance."""
     v = check_finite(v, name)
     length = jnp.sqrt(jnp.sum(v * v, axis=-1))
     tol = _unit_tolerance(v.dtype)
@@ -46,15 +54,32 @@ def _unit_vectors(v: jax.Array, name: str) -> jax.Array:
     )
 
 
-def _directions(wi, wo, n) -> tuple[jax.Array, jax.Array, jax.Array]:
-    """Check and promote the three direction arrays (unit vectors, last axis 3)."""
-    arrays = [as_float(v, name) for v, name in ((wi, "wi"), (wo, "wo"), (n, "n"))]
-    dtype = jnp.result_type(*arrays)
-    wi, wo, n = (
-        _unit_vectors(v.astype(dtype), name)
-        for v, name in zip(arrays, ("wi", "wo", "n"), strict=True)
-    )
-    return wi, wo, n
+def _batch(named: dict[str, jax.Array], core: dict[str, int]) -> tuple[int, ...]:
+    """The broadcast batch shape of arrays whose last `core[name]` axes are not batch
+    axes; a `ValueError` naming the arguments if they do not broadcast."""
+    shapes = {k: v.shape[: v.ndim - core.get(k, 0)] for k, v in named.items()}
+    try:
+        return jnp.broadcast_shapes(*shapes.values())
+    except ValueError:
+        listed = ", ".join(f"`{k}` {s}" for k, s in shapes.items())
+        raise ValueError(f"the batch shapes do not broadcast together: {listed}") from None
+
+
+def _directions(wi, wo, n, **params) -> tuple[jax.Array, ...]:
+    """Static checks: the three directions `(..., 3)` and the parameters as float arrays
+    of one dtype whose batch shapes broadcast. Values are checked by `_check_directions`
+    and `_check_param` inside the jitted function."""
+    arrays = {"wi": as_float(wi, "wi"), "wo": as_float(wo, "wo"), "n": as_float(n, "n")}
+    for name, v in arrays.items():
+        check_last_dim(v, name, (3,), "3D direction vectors")
+    dtype = jnp.result_type(*arrays.values())  # the directions set the dtype
+    arrays |= {name: as_float(value, name) for name, value in params.items()}
+    _batch(arrays, {"wi": 1, "wo": 1, "n": 1})
+    return tuple(v.astype(dtype) for v in arrays.values())
+
+
+def _check_directions(wi, wo, n) -> tuple[jax.Array, jax.Array, jax.Array]:
+    return _unit_vectors(wi, "wi"), _unit_vectors(wo, "wo"), _unit_vectors(n, "n")
 
 
 def _range_message(name: str, low: float, high: float | None, why: str = "") -> str:
@@ -62,12 +87,18 @@ def _range_message(name: str, low: float, high: float | None, why: str = "") -> 
     return f"`{name}` must be {allowed}{why}"
 
 
-def _param(value, name: str, dtype=None, *, low: float = 0.0, high: float | None = None, why=""):
-    """A model parameter as a finite float array, checked to lie in `[low, high]`."""
-    p = finite_float(value, name)
-    p = p if dtype is None else p.astype(dtype)
+def _check_param(p, name: str, *, low: float = 0.0, high: float | None = None, why=""):
+    """Value checks (traceable) of a model parameter: finite and in `[low, high]`."""
+    p = check_finite(p, name)
     bad = p < low if high is None else (p < low) | (p > high)
     return value_error_if(p, bad, _range_message(name, low, high, why))
+
+
+def _param(value, name: str, dtype=None, *, low: float = 0.0, high: float | None = None, why=""):
+    """A model parameter as a finite float array, checked to lie in `[low, high]`."""
+    p = as_float(value, name)
+    p = p if dtype is None else p.astype(dtype)
+    return _check_param(p, name, low=low, high=high, why=why)
 
 
 _ROUGHNESS_WHY = (
@@ -100,14 +131,57 @@ def reflect(w: Float[Array, "*batch 3"], n: Float[Array, "*batch 3"]) -> Float[A
 
     **Returns:** `(..., 3)` mirrored directions.
     """
-    w, n = finite_float(w, "w"), finite_float(n, "n")
+    w, n = as_float(w, "w"), as_float(n, "n")
     check_last_dim(w, "w", (3,), "3D direction vectors")
     check_last_dim(n, "n", (3,), "3D direction vectors")
-    return _reflect(w, n)
+    _batch({"w": w, "n": n}, {"w": 1, "n": 1})
+    dtype = jnp.result_type(w, n)
+    return _reflect_checked(w.astype(dtype), n.astype(dtype))
+
+
+@checked_jit
+def _reflect_checked(w, n):
+    return _reflect(check_finite(w, "w"), check_finite(n, "n"))
 
 
 def _diffuse(kd, valid, dtype):
     return jnp.where(valid, kd / jnp.pi, 0.0).astype(dtype)
+
+
+def checked_filter_jit(fn: Callable) -> Callable:
+    """`equinox.filter_jit` whose failed value checks raise `ValueError(message)`, as
+    they do eagerly (the `filter_jit` twin of `gfxlab._checks.checked_jit`)."""
+    compiled = eqx.filter_jit(fn)
+
+    @functools.wraps(fn)
+    def call(*args, **kwargs):
+        try:
+            return compiled(*args, **kwargs)
+        except (RuntimeError, ValueError) as err:
+            message = check_message(err)
+            if message is None or message == str(err):
+                raise
+            raise ValueError(message) from None
+
+    return call
+
+
+@functools.cache
+def _default_key() -> jax.Array:
+    return jax.random.key(0)
+
+
+def check_key(key) -> jax.Array:
+    """A `jax.random` key (typed, or a raw `uint32[2]` one); `None` gives the default
+    `jax.random.key(0)`."""
+    if key is None:
+        return _default_key()
+    if isinstance(key, jax.Array) and (
+        (jnp.issubdtype(key.dtype, jax.dtypes.prng_key) and key.shape == ())
+        or (key.dtype == jnp.uint32 and key.shape == (2,))
+    ):
+        return key
+    raise TypeError(f"`key` must be a jax.random key (e.g. `jax.random.key(0)`), got {key!r:.60}")
 
 
 def check_brdf(brdf) -> None:
