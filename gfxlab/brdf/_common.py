@@ -166,16 +166,11 @@ def checked_filter_jit(fn: Callable) -> Callable:
     return call
 
 
-@functools.cache
-def _default_key() -> jax.Array:
-    return jax.random.key(0)
-
-
-def check_key(key) -> jax.Array:
-    """A `jax.random` key (typed, or a raw `uint32[2]` one); `None` gives the default
-    `jax.random.key(0)`."""
-    if key is None:
-        return _default_key()
+def check_key(key, *, needed: bool = True) -> jax.Array | None:
+    """A `jax.random` key (typed, or a raw `uint32[2]` one). `None` is accepted only
+    where nothing random is drawn (`needed=False`)."""
+    if key is None and not needed:
+        return None
     if isinstance(key, jax.Array) and (
         (jnp.issubdtype(key.dtype, jax.dtypes.prng_key) and key.shape == ())
         or (key.dtype == jnp.uint32 and key.shape == (2,))
