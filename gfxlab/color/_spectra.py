@@ -82,9 +82,9 @@ def spectrum_to_xyz(
     Example:
         >>> from gfxlab import color
         >>> wl = color.CIE_WAVELENGTHS
-        >>> flat = color.spectrum_to_xyz(wl, wl * 0 + 1.0, k=None)  # equal energy
-        >>> [round(float(v), 2) for v in flat]
-        [100.0, 100.0, 100.0]
+        >>> white = color.spectrum_to_xyz(wl, wl * 0 + 1.0, k=None)  # equal energy, Y = 100
+        >>> [round(float(v), 2) for v in white]  # X = Y = Z up to the tables' rounding
+        [100.01, 100.0, 100.03]
     """
     wl = _grid(wavelengths)
     s = _spectrum(spd, wl.shape[0], "spd")
