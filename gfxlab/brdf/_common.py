@@ -8,6 +8,7 @@ from collections.abc import Callable
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 from .._checks import (
@@ -54,32 +55,63 @@ def _unit_vectors(v: jax.Array, name: str) -> jax.Array:
     )
 
 
-def _batch(named: dict[str, jax.Array], core: dict[str, int]) -> tuple[int, ...]:
+def _static(x, name: str):
+    """Static checks of a float argument: `None`, text and non-numbers raise `TypeError`
+    naming it. Python numbers and float JAX arrays pass through unchanged (the jitted
+    function converts them, with no eager operation); anything else becomes a float
+    JAX array (`as_float`)."""
+    if type(x) is float or (isinstance(x, jax.Array) and jnp.issubdtype(x.dtype, jnp.floating)):
+        return x
+    if type(x) is int:
+        return float(x)
+    return as_float(x, name)
+
+
+def _broadcast(shapes: list[tuple[int, ...]]) -> tuple[int, ...] | None:
+    """The broadcast of `shapes` (NumPy rules), or None if they do not broadcast."""
+    out = [1] * max(map(len, shapes), default=0)
+    for shape in shapes:
+        for i, size in enumerate(shape, len(out) - len(shape)):
+            if size != 1:
+                if out[i] not in (1, size):
+                    return None
+                out[i] = size
+    return tuple(out)
+
+
+def _batch(named: dict, core: dict[str, int]) -> tuple[int, ...]:
     """The broadcast batch shape of arrays whose last `core[name]` axes are not batch
     axes; a `ValueError` naming the arguments if they do not broadcast."""
-    shapes = {k: v.shape[: v.ndim - core.get(k, 0)] for k, v in named.items()}
-    try:
-        return jnp.broadcast_shapes(*shapes.values())
-    except ValueError:
+    shapes = {k: np.shape(v) for k, v in named.items()}
+    shapes = {k: s[: len(s) - core.get(k, 0)] for k, s in shapes.items()}
+    batch = _broadcast(list(shapes.values()))
+    if batch is None:
         listed = ", ".join(f"`{k}` {s}" for k, s in shapes.items())
-        raise ValueError(f"the batch shapes do not broadcast together: {listed}") from None
+        raise ValueError(f"the batch shapes do not broadcast together: {listed}")
+    return batch
 
 
-def _directions(wi, wo, n, **params) -> tuple[jax.Array, ...]:
-    """Static checks: the three directions `(..., 3)` and the parameters as float arrays
-    of one dtype whose batch shapes broadcast. Values are checked by `_check_directions`
+def _directions(wi, wo, n, **params) -> tuple:
+    """Static checks: the three directions `(..., 3)` and the parameters as floats
+    whose batch shapes broadcast. Values and dtypes are handled by `_check_directions`
     and `_check_param` inside the jitted function."""
-    arrays = {"wi": as_float(wi, "wi"), "wo": as_float(wo, "wo"), "n": as_float(n, "n")}
+    arrays = {"wi": _static(wi, "wi"), "wo": _static(wo, "wo"), "n": _static(n, "n")}
     for name, v in arrays.items():
-        check_last_dim(v, name, (3,), "3D direction vectors")
-    dtype = jnp.result_type(*arrays.values())  # the directions set the dtype
-    arrays |= {name: as_float(value, name) for name, value in params.items()}
+        if np.ndim(v) == 0 or np.shape(v)[-1] != 3:
+            check_last_dim(jnp.asarray(v), name, (3,), "3D direction vectors")
+    arrays |= {name: _static(value, name) for name, value in params.items()}
     _batch(arrays, {"wi": 1, "wo": 1, "n": 1})
-    return tuple(v.astype(dtype) for v in arrays.values())
+    return tuple(arrays.values())
 
 
-def _check_directions(wi, wo, n) -> tuple[jax.Array, jax.Array, jax.Array]:
-    return _unit_vectors(wi, "wi"), _unit_vectors(wo, "wo"), _unit_vectors(n, "n")
+def _check_directions(wi, wo, n, *params) -> tuple[jax.Array, ...]:
+    """Inside the jitted function: the directions in their common dtype, checked to be
+    finite unit vectors, then the parameters cast to that dtype."""
+    dtype = jnp.result_type(wi, wo, n)
+    wi, wo, n = (
+        _unit_vectors(jnp.asarray(v, dtype), name) for v, name in ((wi, "wi"), (wo, "wo"), (n, "n"))
+    )
+    return (wi, wo, n, *(jnp.asarray(p, dtype) for p in params))
 
 
 def _range_message(name: str, low: float, high: float | None, why: str = "") -> str:
@@ -135,13 +167,13 @@ def reflect(w: Float[Array, "*batch 3"], n: Float[Array, "*batch 3"]) -> Float[A
     check_last_dim(w, "w", (3,), "3D direction vectors")
     check_last_dim(n, "n", (3,), "3D direction vectors")
     _batch({"w": w, "n": n}, {"w": 1, "n": 1})
-    dtype = jnp.result_type(w, n)
-    return _reflect_checked(w.astype(dtype), n.astype(dtype))
+    return _reflect_checked(w, n)
 
 
 @checked_jit
 def _reflect_checked(w, n):
-    return _reflect(check_finite(w, "w"), check_finite(n, "n"))
+    dtype = jnp.result_type(w, n)
+    return _reflect(check_finite(w.astype(dtype), "w"), check_finite(n.astype(dtype), "n"))
 
 
 def _diffuse(kd, valid, dtype):

@@ -25,6 +25,7 @@ from ._common import (
     _param,
     _reflect,
     _safe_power,
+    _static,
 )
 
 
@@ -49,7 +50,7 @@ def lambert(
 
 @checked_jit
 def _lambert(wi, wo, n, albedo):
-    wi, wo, n = _check_directions(wi, wo, n)
+    wi, wo, n, albedo = _check_directions(wi, wo, n, albedo)
     albedo = _check_param(albedo, "albedo", high=1.0)
     valid = (_dot(n, wi) > 0) & (_dot(n, wo) > 0)
     return _diffuse(albedo, valid, wi.dtype)
@@ -96,7 +97,7 @@ def phong(
 
 @functools.partial(checked_jit, static_argnums=6)
 def _phong(wi, wo, n, ks, shininess, kd, normalized):
-    wi, wo, n = _check_directions(wi, wo, n)
+    wi, wo, n, ks, shininess, kd = _check_directions(wi, wo, n, ks, shininess, kd)
     ks, shininess = _check_param(ks, "ks"), _check_param(shininess, "shininess")
     kd = _check_param(kd, "kd", high=1.0)
     cos_i, cos_o = _dot(n, wi), _dot(n, wo)
@@ -138,7 +139,7 @@ def blinn_phong(
 
 @checked_jit
 def _blinn_phong(wi, wo, n, ks, shininess, kd):
-    wi, wo, n = _check_directions(wi, wo, n)
+    wi, wo, n, ks, shininess, kd = _check_directions(wi, wo, n, ks, shininess, kd)
     ks, shininess = _check_param(ks, "ks"), _check_param(shininess, "shininess")
     kd = _check_param(kd, "kd", high=1.0)
     valid = (_dot(n, wi) > 0) & (_dot(n, wo) > 0)
@@ -154,7 +155,7 @@ def _blinn_phong(wi, wo, n, ks, shininess, kd):
 
 def _scalars(**values) -> list[jax.Array]:
     """Static checks of the microfacet terms' arguments: float arrays that broadcast."""
-    arrays = {name: as_float(v, name) for name, v in values.items()}
+    arrays = {name: _static(v, name) for name, v in values.items()}
     _batch(arrays, {})
     return list(arrays.values())
 
@@ -292,7 +293,7 @@ def cook_torrance(
 
 @checked_jit
 def _cook_torrance(wi, wo, n, roughness, f0, kd):
-    wi, wo, n = _check_directions(wi, wo, n)
+    wi, wo, n, roughness, f0, kd = _check_directions(wi, wo, n, roughness, f0, kd)
     roughness = _check_param(roughness, "roughness", low=MIN_ROUGHNESS, why=_ROUGHNESS_WHY)
     f0, kd = _check_param(f0, "f0", high=1.0), _check_param(kd, "kd", high=1.0)
     a2 = (roughness * roughness) ** 2

@@ -262,14 +262,18 @@ def shade_sphere(
     for value, name in ((intensity, "intensity"), (background, "background")):
         if value.ndim:
             raise ValueError(f"`{name}` must be a scalar, got shape {tuple(value.shape)}")
-    shading = (height, width, radius, bool(point_light))
-    return _shade(brdf, light.astype(dtype), intensity, background, shading)
+    # The radius and the view direction go in as arrays: as constants, XLA would fold
+    # the whole image (and the checks on it) at compile time, which takes seconds.
+    frame = (np.asarray(radius, dtype), np.array([0.0, 0.0, 1.0], dtype))
+    shading = (height, width, bool(point_light))
+    return _shade(brdf, light.astype(dtype), intensity, background, frame, shading)
 
 
 @checked_filter_jit
-def _shade(brdf, light, intensity, background, shading):
-    # Compiled once per BRDF structure, image size, radius and kind of light.
-    height, width, radius, point_light = shading
+def _shade(brdf, light, intensity, background, frame, shading):
+    # Compiled once per BRDF structure, image size and kind of light.
+    radius, up = frame
+    height, width, point_light = shading
     light = check_finite(light, "light")
     light = value_error_if(light, jnp.all(light == 0), "`light` must not be the zero vector")
     intensity = check_finite(intensity, "intensity")
@@ -285,7 +289,6 @@ def _shade(brdf, light, intensity, background, shading):
     r2 = x * x + y * y
     inside = r2 < 1.0
     z = jnp.sqrt(jnp.where(inside, 1.0 - r2, 1.0))
-    up = jnp.array([0.0, 0.0, 1.0], x.dtype)
     normal = jnp.where(inside[..., None], jnp.stack([x, y, z], axis=-1), up)
     normal = safe_normalize(normal)
     wo = jnp.broadcast_to(up, normal.shape)
