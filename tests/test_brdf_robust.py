@@ -143,6 +143,10 @@ BAD_CALLS = [
     (lambda: brdf.cook_torrance(UP, INF3, UP), ValueError, "`wo` must be finite"),
     (lambda: brdf.lambert(UP, UP, NAN3), ValueError, "`n` must be finite"),
     (lambda: brdf.cook_torrance(UP, UP, np.ones((2, 2))), ValueError, r"`n` must have shape"),
+    (lambda: brdf.lambert(np.ones((2, 3)), np.ones((3, 3)), UP), ValueError, "`wi` .*`wo`"),
+    (lambda: brdf.phong(np.tile(UP, (3, 1)), UP, UP, ks=np.ones(2)), ValueError, r"`ks` \(2,\)"),
+    (lambda: brdf.ggx_distribution(np.ones(2), np.ones(3)), ValueError, "`cos_h`.*`alpha`"),
+    (lambda: brdf.reflect(np.ones((2, 3)), np.ones((3, 3))), ValueError, "`w` .*`n`"),
     # parameters: None, NaN, inf, range
     (lambda: brdf.lambert(UP, UP, UP, albedo=None), TypeError, "`albedo`"),
     (lambda: brdf.phong(UP, UP, UP, ks=np.nan), ValueError, "`ks` must be finite"),

@@ -104,7 +104,10 @@ def _make_metamer(wl, s, p, keep_nonnegative):
         return s + black
     negative = black < 0
     room = jnp.where(negative, jnp.maximum(s, 0.0) / jnp.where(negative, -black, 1.0), jnp.inf)
-    t = jnp.minimum(1.0, jnp.min(room, axis=-1, keepdims=True))
+    # A few ulps of margin keep `s + t * black >= 0` whatever the rounding (an FMA, say)
+    # at the sample that limits `t`; any `t` gives an exact metamer.
+    margin = 1.0 - 4.0 * jnp.finfo(s.dtype).eps
+    t = jnp.minimum(1.0, margin * jnp.min(room, axis=-1, keepdims=True))
     return s + t * black
 
 

@@ -51,7 +51,7 @@ def _table_at(wl: jax.Array, values: np.ndarray) -> jax.Array:
     tabulated rows on the grid, zero outside 360..830 nm (traceable)."""
     table = jnp.asarray(values, wl.dtype)
     last = values.shape[0] - 1
-    pos = wl - CIE_WAVELENGTHS[0]
+    pos = wl - float(CIE_WAVELENGTHS[0])  # a Python float keeps the dtype of `wl`
     index = jnp.clip(jnp.floor(pos), 0, last - 1).astype(jnp.int32)
     t = pos - index
     inside = (pos >= 0) & (pos <= last)
