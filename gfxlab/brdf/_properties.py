@@ -3,6 +3,8 @@ Rusinkiewicz's half/difference angles."""
 
 from __future__ import annotations
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -180,8 +182,18 @@ def directional_albedo(
         check_last_dim(v, name, (3,), "3D direction vectors")
     dtype = jnp.result_type(wo, n)
     batch = _batch({"wo": wo, "n": n}, {"wo": 1, "n": 1})
-    local, weights = _albedo_grid(num_theta, num_phi, np.dtype(dtype))
+    local, weights = _quadrature_or_up((num_theta, num_phi), dtype)
     return _albedo_quadrature(brdf, wo.astype(dtype), n.astype(dtype), local, weights, batch)
+
+
+@functools.cache
+def _quadrature_or_up(which, dtype):
+    """Constant arrays, made once per dtype: the quadrature grid `(num_theta, num_phi)`
+    of `directional_albedo`, or "up", the view direction of `shade_sphere`."""
+    if which == "up":
+        return jnp.array([0.0, 0.0, 1.0], dtype)
+    local, weights = _albedo_grid(*which, np.dtype(dtype))
+    return jnp.asarray(local), jnp.asarray(weights)
 
 
 @checked_filter_jit
@@ -191,7 +203,6 @@ def _albedo_quadrature(brdf, wo, n, local, weights, batch):
     wo, n = _unit_vectors(wo, "wo"), _unit_vectors(n, "n")
     wo_flat = jnp.broadcast_to(wo, batch + (3,)).reshape(-1, 3)
     n_flat = jnp.broadcast_to(n, batch + (3,)).reshape(-1, 3)
-    local, weights = jnp.asarray(local), jnp.asarray(weights)
 
     def one(pair):
         w_o, normal = pair
@@ -264,7 +275,8 @@ def shade_sphere(
             raise ValueError(f"`{name}` must be a scalar, got shape {tuple(value.shape)}")
     # The radius and the view direction go in as arrays: as constants, XLA would fold
     # the whole image (and the checks on it) at compile time, which takes seconds.
-    frame = (np.asarray(radius, dtype), np.array([0.0, 0.0, 1.0], dtype))
+    # (JAX arrays: `equinox.filter_jit` is slow to take NumPy arrays.)
+    frame = (jnp.asarray(radius, dtype), _quadrature_or_up("up", dtype))
     shading = (height, width, bool(point_light))
     return _shade(brdf, light.astype(dtype), intensity, background, frame, shading)
 
