@@ -190,10 +190,11 @@ def directional_albedo(
 def _quadrature_or_up(which, dtype):
     """Constant arrays, made once per dtype: the quadrature grid `(num_theta, num_phi)`
     of `directional_albedo`, or "up", the view direction of `shade_sphere`."""
-    if which == "up":
-        return jnp.array([0.0, 0.0, 1.0], dtype)
-    local, weights = _albedo_grid(*which, np.dtype(dtype))
-    return jnp.asarray(local), jnp.asarray(weights)
+    with jax.ensure_compile_time_eval():  # concrete arrays, even when called under jit
+        if which == "up":
+            return jnp.array([0.0, 0.0, 1.0], dtype)
+        local, weights = _albedo_grid(*which, np.dtype(dtype))
+        return jnp.asarray(local), jnp.asarray(weights)
 
 
 @checked_filter_jit
