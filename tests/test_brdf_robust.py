@@ -143,6 +143,10 @@ BAD_CALLS = [
     (lambda: brdf.cook_torrance(UP, INF3, UP), ValueError, "`wo` must be finite"),
     (lambda: brdf.lambert(UP, UP, NAN3), ValueError, "`n` must be finite"),
     (lambda: brdf.cook_torrance(UP, UP, np.ones((2, 2))), ValueError, r"`n` must have shape"),
+    (lambda: brdf.lambert(np.ones((2, 3)), np.ones((3, 3)), UP), ValueError, "`wi` .*`wo`"),
+    (lambda: brdf.phong(np.tile(UP, (3, 1)), UP, UP, ks=np.ones(2)), ValueError, r"`ks` \(2,\)"),
+    (lambda: brdf.ggx_distribution(np.ones(2), np.ones(3)), ValueError, "`cos_h`.*`alpha`"),
+    (lambda: brdf.reflect(np.ones((2, 3)), np.ones((3, 3))), ValueError, "`w` .*`n`"),
     # parameters: None, NaN, inf, range
     (lambda: brdf.lambert(UP, UP, UP, albedo=None), TypeError, "`albedo`"),
     (lambda: brdf.phong(UP, UP, UP, ks=np.nan), ValueError, "`ks` must be finite"),
@@ -179,7 +183,9 @@ BAD_CALLS = [
     (lambda: brdf.reciprocity_error(None), TypeError, "`brdf`"),
     (lambda: brdf.reciprocity_error(brdf.Lambert(), NAN3, UP), ValueError, "`wi` must be finite"),
     (lambda: brdf.reciprocity_error(brdf.Lambert(), n=np.ones(2)), ValueError, "`n` must have"),
-    (lambda: brdf.reciprocity_error(brdf.Lambert(), seed=None), TypeError, "`seed`"),
+    (lambda: brdf.reciprocity_error(brdf.Lambert(), key=7), TypeError, "`key`"),
+    (lambda: brdf.reciprocity_error(brdf.Lambert()), TypeError, "`key` must be a jax.random key"),
+    (lambda: brdf.reciprocity_error(brdf.Lambert(), wi=UP), TypeError, "`key`"),
     (lambda: brdf.reciprocity_error(brdf.Lambert(), num_samples=10**9), ValueError, "num_samples"),
     (lambda: brdf.directional_albedo("lambert", UP), TypeError, "`brdf`"),
     (lambda: brdf.directional_albedo(brdf.Lambert(), None), TypeError, "`wo`"),
@@ -200,6 +206,21 @@ BAD_CALLS = [
     (lambda: brdf.half_diff_to_directions(0.0, 0.0, np.inf), ValueError, "`phi_d` must be"),
     (lambda: brdf.half_diff_to_directions(0.0, 0.0, 0.0, None), TypeError, "`phi_h`"),
 ]
+
+
+def test_reciprocity_error_draws_its_directions_from_the_key():
+    phong = brdf.Phong(0.5, 10.0, normalized=False)  # not reciprocal: the value depends on them
+    a = brdf.reciprocity_error(phong, key=jax.random.key(0), num_samples=64)
+    b = brdf.reciprocity_error(phong, key=jax.random.key(1), num_samples=64)
+    assert float(a) != float(b)
+    assert float(brdf.reciprocity_error(phong, key=jax.random.key(0), num_samples=64)) == float(a)
+    legacy = brdf.reciprocity_error(phong, key=jax.random.PRNGKey(0), num_samples=64)
+    assert float(legacy) == float(a)
+    # no key is needed when nothing is drawn
+    wi, wo = _pairs(jnp.float64)
+    ci, co = np.asarray(wi[:, 2]), np.asarray(wo[:, 2])  # f(wi, wo) / f(wo, wi) = co / ci
+    expected = np.max(1.0 - np.minimum(ci, co) / np.maximum(ci, co))
+    assert float(brdf.reciprocity_error(phong, wi, wo)) == pytest.approx(expected, rel=1e-9)
 
 
 @pytest.mark.parametrize("call, error, message", BAD_CALLS)

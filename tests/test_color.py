@@ -53,14 +53,17 @@ def test_tables_are_colour_sciences_exactly():
     np.testing.assert_array_equal(np.asarray(d65), colour.SDS_ILLUMINANTS["D65"].values)
 
 
-def test_falls_back_to_colour_when_the_table_is_missing(monkeypatch, tmp_path):
-    monkeypatch.setattr(color, "DATA_DIR", tmp_path)
-    color._tables.cache_clear()
-    try:
-        np.testing.assert_array_equal(np.asarray(color.cmfs()), CMFS.values)
-        np.testing.assert_array_equal(np.asarray(color.v_lambda()), LEF.values)
-    finally:
-        color._tables.cache_clear()
+def test_tables_on_the_grid_are_exact_and_never_import_colour():
+    code = (
+        "import sys, numpy as np; from gfxlab import color; "
+        "wl = color.CIE_WAVELENGTHS; "
+        "assert np.array_equal(np.asarray(color.cmfs(wl)), np.asarray(color.cmfs())); "
+        "v = np.asarray(color.v_lambda()); "
+        "assert np.array_equal(np.asarray(color.v_lambda(wl[::5])), v[::5]); "
+        "color.spectrum_to_xyz(wl, wl * 0 + 1.0); color.illuminant_d65(); "
+        "assert 'colour' not in sys.modules"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
 
 
 def test_interpolation_off_grid_and_zero_outside():
@@ -280,6 +283,19 @@ def test_metamer_tools():
     )
     raw = color.make_metamer(WL, spd, bump, keep_nonnegative=False)
     assert float(raw.min()) < 0  # the full black would make the spectrum unphysical
+
+
+def test_make_metamer_stays_nonnegative_in_float32():
+    vis = np.arange(380.0, 781.0)
+    d65_wl, d65 = color.illuminant_d65()
+    d65_vis = np.interp(vis, np.asarray(d65_wl), np.asarray(d65))
+    wiggle = 80 * np.sin(vis / 11.0) + 60 * np.cos(vis / 29.0)
+    args = [jnp.asarray(a, jnp.float32) for a in (vis, d65_vis, wiggle)]
+    for fn in (color.make_metamer, jax.jit(color.make_metamer)):
+        meta = fn(*args)
+        assert meta.dtype == jnp.float32 and float(meta.min()) >= 0.0
+        assert float(jnp.max(jnp.abs(meta - args[1]))) > 0.3 * d65_vis.max()
+        assert bool(color.metameric_match(vis, d65_vis, np.asarray(meta, float), rtol=1e-5))
 
 
 # --------------------------------------------------------------------------- gradients

@@ -56,6 +56,18 @@ CASES = [
     (lambda: color.metameric_match(WL, None, FLAT), TypeError, "`spd_a`"),
     (lambda: color.metameric_match(WL, FLAT, FLAT, rtol=-1.0), ValueError, "`rtol` must be"),
     (lambda: color.spectral_locus(np.array([500.0, 400.0])), ValueError, "increasing"),
+    (lambda: color.spectrum_to_xyz(WL, FLAT, k=np.nan), ValueError, "`k` must be finite"),
+    (lambda: color.spectrum_to_xyz(WL, FLAT, k="x"), TypeError, "`k`"),
+    # k=None normalises by the white's Y, which is 0 outside the observer's range
+    (lambda: color.spectrum_to_xyz([900.0, 950.0], [1.0, 1.0], k=None), ValueError, "`k=None`"),
+    (lambda: color.xyz_to_xy(np.full(3, 0.2), black_xy=None), TypeError, "`black_xy`"),
+    (lambda: color.xyz_to_xy(np.full(3, 0.2), black_xy=(0.3, np.nan)), ValueError, "`black_xy`"),
+    (lambda: color.xy_to_xyz(np.ones((4, 2)) / 3, np.ones(3)), ValueError, "`luminance` must"),
+    (lambda: color.xyz_to_srgb(np.full(3, 0.2), encode="yes"), TypeError, "`encode`"),
+    (lambda: color.srgb_to_xyz(np.full(3, 0.2), encoded=None), TypeError, "`encoded`"),
+    (lambda: color.make_metamer(WL, FLAT, FLAT, keep_nonnegative=1), TypeError, "keep_nonneg"),
+    (lambda: color.line_spectrum(WL, 500.0, np.ones(3)), ValueError, "`power` must have shape"),
+    (lambda: color.metameric_match(WL, FLAT, FLAT, rtol=[1.0, 2.0]), ValueError, "`rtol`"),
 ]
 
 

@@ -124,7 +124,25 @@ BASELINES |= {  # the hidden-surface methods and shading
 # -- curves
 BASELINES |= {}
 # -- brdf, color
-BASELINES |= {}
+
+
+def _lambert_brdf(wi, wo, n):
+    """A valid BRDF argument (a plain function) for the functions that take one."""
+    from gfxlab import brdf
+
+    return brdf.lambert(wi, wo, n)
+
+
+_UP = [0.0, 0.0, 1.0]  # BRDF directions must be unit vectors
+BASELINES |= {
+    f"brdf.{name}": {"wi": _UP, "wo": _UP, "n": _UP}
+    for name in ("lambert", "phong", "blinn_phong", "cook_torrance")
+}
+BASELINES |= {
+    f"brdf.{name}": {"brdf": _lambert_brdf}
+    for name in ("reciprocity_error", "directional_albedo", "shade_sphere")
+}
+BASELINES["brdf.directional_albedo"]["wo"] = _UP
 # -- image, jpeg, raster
 _gi, _gr = (importlib.import_module(f"gfxlab.{_m}") for _m in ("image", "raster"))
 _triangle = [[0.0, 0.0], [4.0, 0.0], [0.0, 4.0]]

@@ -2,13 +2,23 @@
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
-from .._checks import as_float, check_finite, check_last_dim, finite_float, value_error_if
+from .._checks import (
+    as_float,
+    check_finite,
+    check_last_dim,
+    check_message,
+    checked_jit,
+    value_error_if,
+)
 
 BRDF = Callable[[jax.Array, jax.Array, jax.Array], jax.Array]
 
@@ -34,8 +44,7 @@ def _unit_tolerance(dtype) -> float:
 
 
 def _unit_vectors(v: jax.Array, name: str) -> jax.Array:
-    """Check that `v` holds finite 3D unit vectors (last axis 3, length 1 within a tolerance)."""
-    check_last_dim(v, name, (3,), "3D direction vectors")
+    """Value checks (traceable) of 3D unit vectors: finite, length 1 within a tolerance."""
     v = check_finite(v, name)
     length = jnp.sqrt(jnp.sum(v * v, axis=-1))
     tol = _unit_tolerance(v.dtype)
@@ -46,15 +55,63 @@ def _unit_vectors(v: jax.Array, name: str) -> jax.Array:
     )
 
 
-def _directions(wi, wo, n) -> tuple[jax.Array, jax.Array, jax.Array]:
-    """Check and promote the three direction arrays (unit vectors, last axis 3)."""
-    arrays = [as_float(v, name) for v, name in ((wi, "wi"), (wo, "wo"), (n, "n"))]
-    dtype = jnp.result_type(*arrays)
+def _static(x, name: str):
+    """Static checks of a float argument: `None`, text and non-numbers raise `TypeError`
+    naming it. Python numbers and float JAX arrays pass through unchanged (the jitted
+    function converts them, with no eager operation); anything else becomes a float
+    JAX array (`as_float`)."""
+    if type(x) is float or (isinstance(x, jax.Array) and jnp.issubdtype(x.dtype, jnp.floating)):
+        return x
+    if type(x) is int:
+        return float(x)
+    return as_float(x, name)
+
+
+def _broadcast(shapes: list[tuple[int, ...]]) -> tuple[int, ...] | None:
+    """The broadcast of `shapes` (NumPy rules), or None if they do not broadcast."""
+    out = [1] * max(map(len, shapes), default=0)
+    for shape in shapes:
+        for i, size in enumerate(shape, len(out) - len(shape)):
+            if size != 1:
+                if out[i] not in (1, size):
+                    return None
+                out[i] = size
+    return tuple(out)
+
+
+def _batch(named: dict, core: dict[str, int]) -> tuple[int, ...]:
+    """The broadcast batch shape of arrays whose last `core[name]` axes are not batch
+    axes; a `ValueError` naming the arguments if they do not broadcast."""
+    shapes = {k: np.shape(v) for k, v in named.items()}
+    shapes = {k: s[: len(s) - core.get(k, 0)] for k, s in shapes.items()}
+    batch = _broadcast(list(shapes.values()))
+    if batch is None:
+        listed = ", ".join(f"`{k}` {s}" for k, s in shapes.items())
+        raise ValueError(f"the batch shapes do not broadcast together: {listed}")
+    return batch
+
+
+def _directions(wi, wo, n, **params) -> tuple:
+    """Static checks: the three directions `(..., 3)` and the parameters as floats
+    whose batch shapes broadcast. Values and dtypes are handled by `_check_directions`
+    and `_check_param` inside the jitted function."""
+    arrays = {"wi": _static(wi, "wi"), "wo": _static(wo, "wo"), "n": _static(n, "n")}
+    for name, v in arrays.items():
+        if np.ndim(v) == 0 or np.shape(v)[-1] != 3:
+            check_last_dim(jnp.asarray(v), name, (3,), "3D direction vectors")
+    arrays |= {name: _static(value, name) for name, value in params.items()}
+    _batch(arrays, {"wi": 1, "wo": 1, "n": 1})
+    return tuple(arrays.values())
+
+
+def _check_directions(wi, wo, n, *params) -> tuple[jax.Array, ...]:
+    """Inside the jitted function: the directions in their common dtype, checked to be
+    finite unit vectors, then the parameters cast to that dtype."""
+    dtype = jnp.result_type(wi, wo, n)
     wi, wo, n = (
-        _unit_vectors(v.astype(dtype), name)
-        for v, name in zip(arrays, ("wi", "wo", "n"), strict=True)
+        _unit_vectors(jnp.asarray(v, dtype), name) for v, name in ((wi, "wi"), (wo, "wo"), (n, "n"))
     )
-    return wi, wo, n
+    return (wi, wo, n, *(jnp.asarray(p, dtype) for p in params))
 
 
 def _range_message(name: str, low: float, high: float | None, why: str = "") -> str:
@@ -62,12 +119,18 @@ def _range_message(name: str, low: float, high: float | None, why: str = "") -> 
     return f"`{name}` must be {allowed}{why}"
 
 
-def _param(value, name: str, dtype=None, *, low: float = 0.0, high: float | None = None, why=""):
-    """A model parameter as a finite float array, checked to lie in `[low, high]`."""
-    p = finite_float(value, name)
-    p = p if dtype is None else p.astype(dtype)
+def _check_param(p, name: str, *, low: float = 0.0, high: float | None = None, why=""):
+    """Value checks (traceable) of a model parameter: finite and in `[low, high]`."""
+    p = check_finite(p, name)
     bad = p < low if high is None else (p < low) | (p > high)
     return value_error_if(p, bad, _range_message(name, low, high, why))
+
+
+def _param(value, name: str, dtype=None, *, low: float = 0.0, high: float | None = None, why=""):
+    """A model parameter as a finite float array, checked to lie in `[low, high]`."""
+    p = as_float(value, name)
+    p = p if dtype is None else p.astype(dtype)
+    return _check_param(p, name, low=low, high=high, why=why)
 
 
 _ROUGHNESS_WHY = (
@@ -100,14 +163,52 @@ def reflect(w: Float[Array, "*batch 3"], n: Float[Array, "*batch 3"]) -> Float[A
 
     **Returns:** `(..., 3)` mirrored directions.
     """
-    w, n = finite_float(w, "w"), finite_float(n, "n")
+    w, n = as_float(w, "w"), as_float(n, "n")
     check_last_dim(w, "w", (3,), "3D direction vectors")
     check_last_dim(n, "n", (3,), "3D direction vectors")
-    return _reflect(w, n)
+    _batch({"w": w, "n": n}, {"w": 1, "n": 1})
+    return _reflect_checked(w, n)
+
+
+@checked_jit
+def _reflect_checked(w, n):
+    dtype = jnp.result_type(w, n)
+    return _reflect(check_finite(w.astype(dtype), "w"), check_finite(n.astype(dtype), "n"))
 
 
 def _diffuse(kd, valid, dtype):
     return jnp.where(valid, kd / jnp.pi, 0.0).astype(dtype)
+
+
+def checked_filter_jit(fn: Callable) -> Callable:
+    """`equinox.filter_jit` whose failed value checks raise `ValueError(message)`, as
+    they do eagerly (the `filter_jit` twin of `gfxlab._checks.checked_jit`)."""
+    compiled = eqx.filter_jit(fn)
+
+    @functools.wraps(fn)
+    def call(*args, **kwargs):
+        try:
+            return compiled(*args, **kwargs)
+        except (RuntimeError, ValueError) as err:
+            message = check_message(err)
+            if message is None or message == str(err):
+                raise
+            raise ValueError(message) from None
+
+    return call
+
+
+def check_key(key, *, needed: bool = True) -> jax.Array | None:
+    """A `jax.random` key (typed, or a raw `uint32[2]` one). `None` is accepted only
+    where nothing random is drawn (`needed=False`)."""
+    if key is None and not needed:
+        return None
+    if isinstance(key, jax.Array) and (
+        (jnp.issubdtype(key.dtype, jax.dtypes.prng_key) and key.shape == ())
+        or (key.dtype == jnp.uint32 and key.shape == (2,))
+    ):
+        return key
+    raise TypeError(f"`key` must be a jax.random key (e.g. `jax.random.key(0)`), got {key!r:.60}")
 
 
 def check_brdf(brdf) -> None:

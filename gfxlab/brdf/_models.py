@@ -10,18 +10,22 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from .._checks import as_float, finite_float, is_traced, safe_normalize
+from .._checks import as_float, check_finite, checked_jit, is_traced, safe_normalize
 from ._common import (
     _ALPHA_WHY,
     _ROUGHNESS_WHY,
     MIN_ALPHA,
     MIN_ROUGHNESS,
+    _batch,
+    _check_directions,
+    _check_param,
     _diffuse,
     _directions,
     _dot,
     _param,
     _reflect,
     _safe_power,
+    _static,
 )
 
 
@@ -41,13 +45,13 @@ def lambert(
 
     **Returns:** `(...)` BRDF values in 1/sr, 0 outside the upper hemisphere.
     """
-    wi, wo, n = _directions(wi, wo, n)
-    albedo = _param(albedo, "albedo", wi.dtype, high=1.0)
-    return _lambert(wi, wo, n, albedo)
+    return _lambert(*_directions(wi, wo, n, albedo=albedo))
 
 
-@jax.jit
+@checked_jit
 def _lambert(wi, wo, n, albedo):
+    wi, wo, n, albedo = _check_directions(wi, wo, n, albedo)
+    albedo = _check_param(albedo, "albedo", high=1.0)
     valid = (_dot(n, wi) > 0) & (_dot(n, wo) > 0)
     return _diffuse(albedo, valid, wi.dtype)
 
@@ -85,17 +89,17 @@ def phong(
 
     **Returns:** `(...)` BRDF values in 1/sr, 0 outside the upper hemisphere.
     """
-    wi, wo, n = _directions(wi, wo, n)
-    ks = _param(ks, "ks", wi.dtype)
-    shininess = _param(shininess, "shininess", wi.dtype)
-    kd = _param(kd, "kd", wi.dtype, high=1.0)
     if not isinstance(normalized, bool | np.bool_):
         raise TypeError(f"`normalized` must be True or False, got {normalized!r}")
-    return _phong(wi, wo, n, ks, shininess, kd, bool(normalized))
+    args = _directions(wi, wo, n, ks=ks, shininess=shininess, kd=kd)
+    return _phong(*args, bool(normalized))
 
 
-@functools.partial(jax.jit, static_argnums=6)
+@functools.partial(checked_jit, static_argnums=6)
 def _phong(wi, wo, n, ks, shininess, kd, normalized):
+    wi, wo, n, ks, shininess, kd = _check_directions(wi, wo, n, ks, shininess, kd)
+    ks, shininess = _check_param(ks, "ks"), _check_param(shininess, "shininess")
+    kd = _check_param(kd, "kd", high=1.0)
     cos_i, cos_o = _dot(n, wi), _dot(n, wo)
     valid = (cos_i > 0) & (cos_o > 0)
     lobe = _safe_power(_dot(_reflect(wi, n), wo), shininess)
@@ -130,15 +134,14 @@ def blinn_phong(
 
     **Returns:** `(...)` BRDF values in 1/sr, 0 outside the upper hemisphere.
     """
-    wi, wo, n = _directions(wi, wo, n)
-    ks = _param(ks, "ks", wi.dtype)
-    shininess = _param(shininess, "shininess", wi.dtype)
-    kd = _param(kd, "kd", wi.dtype, high=1.0)
-    return _blinn_phong(wi, wo, n, ks, shininess, kd)
+    return _blinn_phong(*_directions(wi, wo, n, ks=ks, shininess=shininess, kd=kd))
 
 
-@jax.jit
+@checked_jit
 def _blinn_phong(wi, wo, n, ks, shininess, kd):
+    wi, wo, n, ks, shininess, kd = _check_directions(wi, wo, n, ks, shininess, kd)
+    ks, shininess = _check_param(ks, "ks"), _check_param(shininess, "shininess")
+    kd = _check_param(kd, "kd", high=1.0)
     valid = (_dot(n, wi) > 0) & (_dot(n, wo) > 0)
     half = safe_normalize(wi + wo)
     norm = (
@@ -148,6 +151,13 @@ def _blinn_phong(wi, wo, n, ks, shininess, kd):
     )
     specular = ks * norm * _safe_power(_dot(n, half), shininess)
     return _diffuse(kd, valid, wi.dtype) + jnp.where(valid, specular, 0.0)
+
+
+def _scalars(**values) -> list[jax.Array]:
+    """Static checks of the microfacet terms' arguments: float arrays that broadcast."""
+    arrays = {name: _static(v, name) for name, v in values.items()}
+    _batch(arrays, {})
+    return list(arrays.values())
 
 
 def _ggx(cos_h, sin2_h, a2):
@@ -178,13 +188,14 @@ def ggx_distribution(cos_h: Float[Array, "..."], alpha: Float[Array, "..."]) -> 
 
     **Returns:** `D` in 1/sr, broadcast over both arguments.
     """
-    cos_h = finite_float(cos_h, "cos_h")
-    alpha = _param(alpha, "alpha", low=MIN_ALPHA, why=_ALPHA_WHY)
+    cos_h, alpha = _scalars(cos_h=cos_h, alpha=alpha)
     return _ggx_public(cos_h, alpha)
 
 
-@jax.jit
+@checked_jit
 def _ggx_public(cos_h, alpha):
+    cos_h = check_finite(cos_h, "cos_h")
+    alpha = _check_param(alpha, "alpha", low=MIN_ALPHA, why=_ALPHA_WHY)
     c = jnp.clip(cos_h, 0.0, 1.0)
     return jnp.where(cos_h > 0, _ggx(c, (1.0 - c) * (1.0 + c), alpha * alpha), 0.0)
 
@@ -214,13 +225,13 @@ def smith_visibility(
 
     **Returns:** `V`, broadcast over the arguments.
     """
-    cos_i, cos_o = finite_float(cos_i, "cos_i"), finite_float(cos_o, "cos_o")
-    alpha = _param(alpha, "alpha", low=MIN_ALPHA, why=_ALPHA_WHY)
-    return _smith_public(cos_i, cos_o, alpha)
+    return _smith_public(*_scalars(cos_i=cos_i, cos_o=cos_o, alpha=alpha))
 
 
-@jax.jit
+@checked_jit
 def _smith_public(cos_i, cos_o, alpha):
+    cos_i, cos_o = check_finite(cos_i, "cos_i"), check_finite(cos_o, "cos_o")
+    alpha = _check_param(alpha, "alpha", low=MIN_ALPHA, why=_ALPHA_WHY)
     return _smith(jnp.clip(cos_i, 0.0, 1.0), jnp.clip(cos_o, 0.0, 1.0), alpha * alpha)
 
 
@@ -235,13 +246,12 @@ def schlick_fresnel(cos_d: Float[Array, "..."], f0: Float[Array, "..."]) -> Floa
 
     **Returns:** `F`, broadcast over both arguments.
     """
-    cos_d = finite_float(cos_d, "cos_d")
-    f0 = _param(f0, "f0", high=1.0)
-    return _schlick(cos_d, f0)
+    return _schlick(*_scalars(cos_d=cos_d, f0=f0))
 
 
-@jax.jit
+@checked_jit
 def _schlick(cos_d, f0):
+    cos_d, f0 = check_finite(cos_d, "cos_d"), _check_param(f0, "f0", high=1.0)
     return f0 + (1.0 - f0) * (1.0 - jnp.clip(cos_d, 0.0, 1.0)) ** 5
 
 
@@ -278,15 +288,14 @@ def cook_torrance(
 
     **Returns:** `(...)` BRDF values in 1/sr, 0 outside the upper hemisphere.
     """
-    wi, wo, n = _directions(wi, wo, n)
-    roughness = _param(roughness, "roughness", wi.dtype, low=MIN_ROUGHNESS, why=_ROUGHNESS_WHY)
-    f0 = _param(f0, "f0", wi.dtype, high=1.0)
-    kd = _param(kd, "kd", wi.dtype, high=1.0)
-    return _cook_torrance(wi, wo, n, roughness, f0, kd)
+    return _cook_torrance(*_directions(wi, wo, n, roughness=roughness, f0=f0, kd=kd))
 
 
-@jax.jit
+@checked_jit
 def _cook_torrance(wi, wo, n, roughness, f0, kd):
+    wi, wo, n, roughness, f0, kd = _check_directions(wi, wo, n, roughness, f0, kd)
+    roughness = _check_param(roughness, "roughness", low=MIN_ROUGHNESS, why=_ROUGHNESS_WHY)
+    f0, kd = _check_param(f0, "f0", high=1.0), _check_param(kd, "kd", high=1.0)
     a2 = (roughness * roughness) ** 2
     cos_i, cos_o = _dot(n, wi), _dot(n, wo)
     valid = (cos_i > 0) & (cos_o > 0)

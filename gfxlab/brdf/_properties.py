@@ -3,7 +3,8 @@ Rusinkiewicz's half/difference angles."""
 
 from __future__ import annotations
 
-import equinox as eqx
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -11,8 +12,9 @@ from jaxtyping import Array, Float
 
 from .._checks import (
     as_float,
+    check_finite,
     check_last_dim,
-    finite_float,
+    checked_jit,
     safe_normalize,
     static_int,
     static_shape,
@@ -24,10 +26,13 @@ from ._common import (
     MAX_PIXELS,
     MAX_QUADRATURE,
     MAX_SAMPLES,
+    _batch,
     _dot,
     _reflect,
     _unit_vectors,
     check_brdf,
+    check_key,
+    checked_filter_jit,
 )
 
 
@@ -60,7 +65,7 @@ def reciprocity_error(
     n: Float[Array, "*batch 3"] | None = None,
     *,
     num_samples: int = 512,
-    seed: int = 0,
+    key: jax.Array | None = None,
 ) -> Float[Array, ""]:
     """The largest relative asymmetry `|f(wi, wo) - f(wo, wi)| / max(f(wi, wo), f(wo, wi))`.
 
@@ -70,34 +75,44 @@ def reciprocity_error(
 
     - `brdf`: a callable `brdf(wi, wo, n)`, e.g. a `CookTorrance` module or
       `functools.partial(phong, normalized=False)`.
-    - `wi`, `wo`, `n`: directions to test; by default `num_samples` random pairs,
-      uniform on the upper hemisphere about `n = (0, 0, 1)`.
-    - `num_samples`, `seed`: the random pairs' count (static, at most `MAX_SAMPLES`)
-      and seed.
+    - `wi`, `wo`, `n`: directions to test; without `wi` or `wo`, `num_samples`
+      random directions uniform on the upper hemisphere about `n` (default
+      `(0, 0, 1)`) take their place.
+    - `num_samples`: the random directions' count (static, at most `MAX_SAMPLES`).
+    - `key`: the `jax.random` key that draws them (e.g. `jax.random.key(0)`); needed
+      unless both `wi` and `wo` are given.
+
+    Example:
+        >>> import jax
+        >>> from gfxlab import brdf
+        >>> error = brdf.reciprocity_error(brdf.CookTorrance(0.3), key=jax.random.key(0))
+        >>> bool(error < 1e-4)  # reciprocal, to rounding
+        True
 
     **Returns:** a scalar in [0, 1] (0/0 counts as 0).
     """
     check_brdf(brdf)
     num_samples = static_int(num_samples, "num_samples", minimum=1, maximum=MAX_SAMPLES)
-    seed = static_int(seed, "seed")
-    if n is None:
-        n = jnp.array([0.0, 0.0, 1.0], jnp.result_type(float))
-    n = finite_float(n, "n")
+    n = jnp.array([0.0, 0.0, 1.0], jnp.result_type(float)) if n is None else as_float(n, "n")
     check_last_dim(n, "n", (3,), "3D unit normals")
-    if wi is None or wo is None:
-        key_i, key_o = jax.random.split(jax.random.PRNGKey(seed))
-        sample_wi = _hemisphere_samples(key_i, num_samples, n, n.dtype)
-        sample_wo = _hemisphere_samples(key_o, num_samples, n, n.dtype)
-        wi = sample_wi if wi is None else wi
-        wo = sample_wo if wo is None else wo
-    wi, wo = finite_float(wi, "wi"), finite_float(wo, "wo")
-    check_last_dim(wi, "wi", (3,), "3D unit directions")
-    check_last_dim(wo, "wo", (3,), "3D unit directions")
-    return _reciprocity(brdf, wi, wo, n)
+    given = {}
+    for name, value in (("wi", wi), ("wo", wo)):
+        if value is not None:
+            given[name] = as_float(value, name)
+            check_last_dim(given[name], name, (3,), "3D unit directions")
+    key = check_key(key, needed=wi is None or wo is None)
+    return _reciprocity(brdf, given.get("wi"), given.get("wo"), n, key, num_samples)
 
 
-@eqx.filter_jit
-def _reciprocity(brdf, wi, wo, n):
+@checked_filter_jit
+def _reciprocity(brdf, wi, wo, n, key, num_samples):
+    # Compiled once per BRDF structure; the default pairs are drawn inside.
+    n = check_finite(n, "n")
+    if key is not None:
+        key_i, key_o = jax.random.split(key)
+        wi = _hemisphere_samples(key_i, num_samples, n, n.dtype) if wi is None else wi
+        wo = _hemisphere_samples(key_o, num_samples, n, n.dtype) if wo is None else wo
+    wi, wo = check_finite(wi, "wi"), check_finite(wo, "wo")
     forward = brdf(wi, wo, n)
     backward = brdf(wo, wi, n)
     scale = jnp.maximum(jnp.abs(forward), jnp.abs(backward))
@@ -162,24 +177,34 @@ def directional_albedo(
     num_theta = static_int(num_theta, "num_theta", minimum=2, maximum=MAX_QUADRATURE)
     num_phi = static_int(num_phi, "num_phi", minimum=2, maximum=MAX_QUADRATURE)
     wo = as_float(wo, "wo")
-    if n is None:
-        n = jnp.array([0.0, 0.0, 1.0], wo.dtype)
-    n = as_float(n, "n")
+    n = jnp.array([0.0, 0.0, 1.0], wo.dtype) if n is None else as_float(n, "n")
+    for v, name in ((wo, "wo"), (n, "n")):
+        check_last_dim(v, name, (3,), "3D direction vectors")
     dtype = jnp.result_type(wo, n)
-    wo, n = wo.astype(dtype), n.astype(dtype)
-    wo, n = _unit_vectors(wo, "wo"), _unit_vectors(n, "n")
-    batch = jnp.broadcast_shapes(wo.shape, n.shape)
-    wo_flat = jnp.broadcast_to(wo, batch).reshape(-1, 3)
-    n_flat = jnp.broadcast_to(n, batch).reshape(-1, 3)
-    local, weights = _albedo_grid(num_theta, num_phi, np.dtype(dtype))
-    albedo = _albedo_quadrature(brdf, wo_flat, n_flat, jnp.asarray(local), jnp.asarray(weights))
-    return albedo.reshape(batch[:-1])
+    batch = _batch({"wo": wo, "n": n}, {"wo": 1, "n": 1})
+    local, weights = _quadrature_or_up((num_theta, num_phi), dtype)
+    return _albedo_quadrature(brdf, wo.astype(dtype), n.astype(dtype), local, weights, batch)
 
 
-@eqx.filter_jit
-def _albedo_quadrature(brdf, wo, n, local, weights):
+@functools.cache
+def _quadrature_or_up(which, dtype):
+    """Constant arrays, made once per dtype: the quadrature grid `(num_theta, num_phi)`
+    of `directional_albedo`, or "up", the view direction of `shade_sphere`."""
+    with jax.ensure_compile_time_eval():  # concrete arrays, even when called under jit
+        if which == "up":
+            return jnp.array([0.0, 0.0, 1.0], dtype)
+        local, weights = _albedo_grid(*which, np.dtype(dtype))
+        return jnp.asarray(local), jnp.asarray(weights)
+
+
+@checked_filter_jit
+def _albedo_quadrature(brdf, wo, n, local, weights, batch):
     # Compiled once per BRDF structure (a model's parameters are traced leaves), and
     # mapped over the view directions to keep memory at one quadrature grid.
+    wo, n = _unit_vectors(wo, "wo"), _unit_vectors(n, "n")
+    wo_flat = jnp.broadcast_to(wo, batch + (3,)).reshape(-1, 3)
+    n_flat = jnp.broadcast_to(n, batch + (3,)).reshape(-1, 3)
+
     def one(pair):
         w_o, normal = pair
         axis = safe_normalize(_reflect(w_o, normal))
@@ -189,7 +214,7 @@ def _albedo_quadrature(brdf, wo, n, local, weights):
         values = brdf(wi, jnp.broadcast_to(w_o, wi.shape), jnp.broadcast_to(normal, wi.shape))
         return jnp.sum(values * cos_i * weights)
 
-    return jax.lax.map(one, (wo, n))
+    return jax.lax.map(one, (wo_flat, n_flat)).reshape(batch)
 
 
 # --------------------------------------------------------------------------- rendering
@@ -232,7 +257,7 @@ def shade_sphere(
     check_brdf(brdf)
     height, width = static_shape(shape)
     static_int(height * width, "shape[0] * shape[1]", maximum=MAX_PIXELS)
-    light = finite_float(light, "light")
+    light = as_float(light, "light")
     check_last_dim(light, "light", (3,), "a 3D direction or position")
     if light.ndim != 1:
         raise ValueError(f"`light` must be a single 3-vector, got shape {tuple(light.shape)}")
@@ -241,27 +266,42 @@ def shade_sphere(
     radius = float(radius)
     if not (0 < radius < np.inf):
         raise ValueError(f"`radius` must be positive and finite, got {radius}")
+    if not isinstance(point_light, bool | np.bool_):
+        raise TypeError(f"`point_light` must be True or False, got {point_light!r:.60}")
     dtype = jnp.result_type(light.dtype, float)
-    light = light.astype(dtype)
+    intensity = as_float(intensity, "intensity").astype(dtype)
+    background = as_float(background, "background").astype(dtype)
+    for value, name in ((intensity, "intensity"), (background, "background")):
+        if value.ndim:
+            raise ValueError(f"`{name}` must be a scalar, got shape {tuple(value.shape)}")
+    # The radius and the view direction go in as arrays: as constants, XLA would fold
+    # the whole image (and the checks on it) at compile time, which takes seconds.
+    # (JAX arrays: `equinox.filter_jit` is slow to take NumPy arrays.)
+    frame = (jnp.asarray(radius, dtype), _quadrature_or_up("up", dtype))
+    shading = (height, width, bool(point_light))
+    return _shade(brdf, light.astype(dtype), intensity, background, frame, shading)
+
+
+@checked_filter_jit
+def _shade(brdf, light, intensity, background, frame, shading):
+    # Compiled once per BRDF structure, image size and kind of light.
+    radius, up = frame
+    height, width, point_light = shading
+    light = check_finite(light, "light")
     light = value_error_if(light, jnp.all(light == 0), "`light` must not be the zero vector")
+    intensity = check_finite(intensity, "intensity")
+    background = check_finite(background, "background")
     # The pixel grid (y up) of gfxlab._pixels, centred on the image and scaled so that
     # the sphere's radius is `radius` times half the smaller side.
+    dtype = light.dtype
     centre = jnp.array([(width - 1) / 2, (height - 1) / 2], dtype)
     xy = (pixel_centers((height, width), dtype=dtype) - centre) / (
         radius * 0.5 * min(height, width)
     )
-    intensity = finite_float(intensity, "intensity").astype(dtype)
-    background = finite_float(background, "background").astype(dtype)
-    return _shade(brdf, xy[..., 0], xy[..., 1], light, intensity, background, bool(point_light))
-
-
-@eqx.filter_jit
-def _shade(brdf, x, y, light, intensity, background, point_light):
-    # Compiled once per BRDF structure and image size.
+    x, y = xy[..., 0], xy[..., 1]
     r2 = x * x + y * y
     inside = r2 < 1.0
     z = jnp.sqrt(jnp.where(inside, 1.0 - r2, 1.0))
-    up = jnp.array([0.0, 0.0, 1.0], x.dtype)
     normal = jnp.where(inside[..., None], jnp.stack([x, y, z], axis=-1), up)
     normal = safe_normalize(normal)
     wo = jnp.broadcast_to(up, normal.shape)
@@ -293,9 +333,20 @@ def half_diff_to_directions(
     **Returns:** `wi`, `wo` as `(..., 3)` unit vectors (possibly below the horizon).
     """
     names = ("theta_h", "theta_d", "phi_d", "phi_h")
-    th, td, pd, ph = (
-        finite_float(a, name)
+    arrays = {
+        name: as_float(a, name)
         for a, name in zip((theta_h, theta_d, phi_d, phi_h), names, strict=True)
+    }
+    _batch(arrays, {})
+    dtype = jnp.result_type(*arrays.values())
+    return _half_diff(*(a.astype(dtype) for a in arrays.values()))
+
+
+@checked_jit
+def _half_diff(th, td, pd, ph):
+    th, td, pd, ph = (
+        check_finite(a, name)
+        for a, name in zip((th, td, pd, ph), ("theta_h", "theta_d", "phi_d", "phi_h"), strict=True)
     )
     th, td, pd, ph = jnp.broadcast_arrays(th, td, pd, ph)
     d = jnp.stack([jnp.sin(td) * jnp.cos(pd), jnp.sin(td) * jnp.sin(pd), jnp.cos(td)], axis=-1)
