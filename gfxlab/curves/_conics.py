@@ -62,6 +62,7 @@ def circle(
 ) -> Float[Array, "*batch N 2"]:
     """The parametric circle `(h + r cos t, k + r sin t)`: an ellipse with `a = b = r`."""
     radius = as_float(radius, "radius")
+    radius = _require(radius, "`radius` must be finite (no NaN or inf)", _not_finite)
     radii = jnp.stack([radius, radius], axis=-1)
     return ellipse(center, radii, jnp.zeros_like(radius), t)
 

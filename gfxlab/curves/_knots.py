@@ -75,15 +75,21 @@ def parameter_range(
     knots: Float[ArrayLike, " m+1"], degree: int
 ) -> tuple[Float[Array, ""], Float[Array, ""]]:
     """The valid parameter range `(t_p, t_n)` of a degree-`p` B-spline with these knots
-    (`n = m - p` control points): where the basis functions sum to one."""
+    (`n = m - p` control points): where the basis functions sum to one.
+
+    **Raises:** `ValueError` for knots that are not finite and non-decreasing, or that
+    leave an empty range (`t_p = t_n`); `TypeError` for `None` or a non-int degree.
+    """
     knots = as_float(knots, "knots")
     check_shape(knots, "knots", (None,))
-    p = static_int(degree, "degree", minimum=0)
+    p = static_int(degree, "degree", minimum=0, maximum=MAX_BSPLINE_DEGREE)
     if knots.shape[0] < p + 2:
         raise ValueError(
             f"`degree` {p} is too high for {knots.shape[0]} knots (need at least degree + 2)"
         )
-    return knots[p], knots[knots.shape[0] - p - 1]
+    n = knots.shape[0] - p - 1
+    knots = _check_knots(knots, p, n)
+    return knots[p], knots[n]
 
 
 def _check_in_range(

@@ -91,6 +91,7 @@ def patch_mesh(control_nets: Float[ArrayLike, "P m+1 n+1 3"], resolution: int) -
             f"`control_nets` must have shape (P, m+1, n+1, 3) or (m+1, n+1, 3), got "
             f"{tuple(jnp.shape(control_nets))}"
         )
+    nets = _require(nets, "`control_nets` must be finite (no NaN or inf)", _not_finite)
     r = static_int(resolution, "resolution", minimum=1, maximum=MAX_RESOLUTION)
     grid = jnp.linspace(0, 1, r + 1, dtype=nets.dtype)
     points = bezier_patch(nets, grid, grid)  # (P, r+1, r+1, 3)
