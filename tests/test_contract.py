@@ -124,13 +124,13 @@ BASELINES |= {
         "control_points": _SPLINE_POINTS,
         "weights": [1.0, 2, 1, 1, 0.5, 1],
         "degree": 3,
-    },  # fmt: skip
+    },
     "curves.BSpline": {"control_points": _SPLINE_POINTS, "degree": 3},
     "curves.NURBS": {
         "control_points": _SPLINE_POINTS,
         "weights": [1.0, 2, 1, 1, 0.5, 1],
         "degree": 3,
-    },  # fmt: skip
+    },
     "curves.Ellipse": {"center": [1.0, 2.0], "radii": [2.0, 1.0], "angle": 0.3},
     "curves.fit_bezier": {"points": _SPLINE_POINTS, "degree": 2, "max_steps": 5},
     "curves.fit_bspline": {
@@ -138,7 +138,7 @@ BASELINES |= {
         "degree": 2,
         "num_control_points": 4,
         "max_steps": 5,
-    },  # fmt: skip
+    },
     "curves.fit_ellipse": {"points": _ON_ELLIPSE, "max_steps": 5},
 }
 # -- brdf, color
