@@ -188,7 +188,7 @@ def test_none_nan_and_huge_sizes_are_clear_errors():
         (lambda: curves.bspline(cp, 2, jnp.array([jnp.nan])), "u"),
         (lambda: curves.bernstein(2, jnp.array([jnp.inf])), "u"),
         (lambda: curves.Bezier(nan_cp), "control_points"),
-        (lambda: curves.patch_mesh(jnp.full((4, 4, 3), jnp.inf), 2), "control_net"),
+        (lambda: curves.patch_mesh(jnp.full((4, 4, 3), jnp.inf), 2), "control_nets"),
         (lambda: curves.fit_bezier(jnp.full((6, 2), jnp.nan), 2), "points"),
         (lambda: curves.ellipse([0, jnp.nan], [1, 1], 0.0, u), "center"),
         (lambda: curves.ellipse([0, 0], [1, 1], jnp.inf, u), "angle"),

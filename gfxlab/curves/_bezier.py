@@ -10,8 +10,15 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._checks import as_float, check_shape, common_float, static_int
-from ._common import MAX_DEGREE, _check_unit_interval, _control_points, _flat_parameters, _unflatten
+from .._checks import as_float, check_shape, static_int
+from ._common import (
+    MAX_DEGREE,
+    _check_unit_interval,
+    _control_points,
+    _flat_parameters,
+    _floats,
+    _unflatten,
+)
 
 # Up to this degree the Bernstein recursion is unrolled (XLA fuses it into one pass);
 # above it, a `lax.scan` keeps the program small.
@@ -98,7 +105,7 @@ def bezier(
     **Raises:** `ValueError` for bad shapes or `u` outside `[0, 1]`.
     """
     cp = _control_points(control_points)
-    cp, u = common_float(cp, u, names=("control_points", "u"))
+    cp, u = _floats(cp, u, names=("control_points", "u"))
     u = _check_unit_interval(u)
     return _bezier_kernel(cp, u)
 
@@ -122,7 +129,7 @@ def de_casteljau(
     `levels[-1][..., 0, :]` is the curve point.
     """
     cp = _control_points(control_points)
-    cp, u = common_float(cp, u, names=("control_points", "u"))
+    cp, u = _floats(cp, u, names=("control_points", "u"))
     u = _check_unit_interval(u)
     return _de_casteljau_kernel(cp, u)
 
@@ -165,7 +172,7 @@ def split(
     t = as_float(t, "t")
     check_shape(t, "t", ())
     cp = _control_points(control_points)
-    cp, t = common_float(cp, t, names=("control_points", "t"))
+    cp, t = _floats(cp, t, names=("control_points", "t"))
     return _split_kernel(cp, _check_unit_interval(t, "t"))
 
 

@@ -7,8 +7,8 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._checks import as_float, check_last_dim, check_shape, common_float
-from ._common import _flat_parameters, _not_finite, _require, _unflatten
+from .._checks import as_float, check_last_dim, check_shape
+from ._common import _flat_parameters, _floats, _not_finite, _require, _unflatten
 
 
 def ellipse(
@@ -30,7 +30,7 @@ def ellipse(
 
     **Returns:** `(..., N, 2)`.
     """
-    center, radii, angle, t = common_float(
+    center, radii, angle, t = _floats(
         center, radii, angle, t, names=("center", "radii", "angle", "t")
     )
     check_last_dim(center, "center", (2,), "the centre (h, k)")
@@ -61,10 +61,19 @@ def circle(
     t: Float[ArrayLike, " N"],
 ) -> Float[Array, "*batch N 2"]:
     """The parametric circle `(h + r cos t, k + r sin t)`: an ellipse with `a = b = r`."""
-    radius = as_float(radius, "radius")
-    radius = _require(radius, "`radius` must be finite (no NaN or inf)", _not_finite)
+    center, radius, t = _floats(center, radius, t, names=("center", "radius", "t"))
+    check_last_dim(center, "center", (2,), "the centre (h, k)")
+    center, radius, t = (
+        _require(x, f"`{name}` must be finite (no NaN or inf)", _not_finite)
+        for x, name in zip((center, radius, t), ("center", "radius", "t"), strict=True)
+    )
+    return _circle_kernel(center, radius, t)
+
+
+@jax.jit
+def _circle_kernel(center, radius, t) -> jax.Array:
     radii = jnp.stack([radius, radius], axis=-1)
-    return ellipse(center, radii, jnp.zeros_like(radius), t)
+    return _ellipse_kernel(center, radii, jnp.zeros_like(radius), t)
 
 
 class Ellipse(eqx.Module):
@@ -79,7 +88,7 @@ class Ellipse(eqx.Module):
     angle: Float[Array, ""]
 
     def __init__(self, center, radii, angle=0.0):
-        self.center, self.radii, self.angle = common_float(
+        self.center, self.radii, self.angle = _floats(
             center, radii, angle, names=("center", "radii", "angle")
         )
         check_shape(self.center, "center", (2,))

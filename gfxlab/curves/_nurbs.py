@@ -11,9 +11,9 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._checks import as_float, check_shape, common_float
+from .._checks import as_float, check_shape
 from ._bspline import _bspline_kernel
-from ._common import _control_points, _not_finite, _require
+from ._common import _control_points, _floats, _not_finite, _require
 from ._knots import (
     _check_degree,
     _check_in_range,
@@ -43,12 +43,12 @@ def nurbs(
     **Returns:** `(..., N, d)`.
     """
     cp = _control_points(control_points)
-    cp, weights = common_float(cp, weights, names=("control_points", "weights"))
+    cp, weights = _floats(cp, weights, names=("control_points", "weights"))
     weights = _check_weights(weights, cp)
     n, p = _check_degree(cp.shape[-2], degree)
     if knots is None:
         knots = clamped_knots(n, p, dtype=cp.dtype)
-    cp, weights, knots, u = common_float(
+    cp, weights, knots, u = _floats(
         cp, weights, knots, u, names=("control_points", "weights", "knots", "u")
     )
     knots = _check_knots(knots, p, n)
@@ -84,7 +84,7 @@ def nurbs_circle(
     **Returns:** a `NURBS` on `u` in `[0, 1]`, starting and ending at
     `center + (radius, 0)` and running counter-clockwise (not at constant speed).
     """
-    center, radius = common_float(center, radius, names=("center", "radius"))
+    center, radius = _floats(center, radius, names=("center", "radius"))
     check_shape(center, "center", (2,))
     check_shape(radius, "radius", ())
     center = _require(center, "`center` must be finite (no NaN or inf)", _not_finite)

@@ -9,7 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._checks import as_float, check_shape, common_float, static_int
+from .._checks import as_float, check_shape, static_int
 from .._resources import data_file
 from ..mesh import Mesh
 from ._bezier import _bernstein
@@ -18,6 +18,7 @@ from ._common import (
     MAX_RESOLUTION,
     _check_unit_interval,
     _float_dtype,
+    _floats,
     _not_finite,
     _require,
 )
@@ -52,7 +53,7 @@ def bezier_patch(
             f"side, got shape {tuple(net.shape)}"
         )
     net = _require(net, "`control_net` must be finite (no NaN or inf)", _not_finite)
-    net, u, v = common_float(net, u, v, names=("control_net", "u", "v"))
+    net, u, v = _floats(net, u, v, names=("control_net", "u", "v"))
     check_shape(u, "u", (None,))
     check_shape(v, "v", (None,))
     u = _check_unit_interval(u, "u")
@@ -93,11 +94,19 @@ def patch_mesh(control_nets: Float[ArrayLike, "P m+1 n+1 3"], resolution: int) -
         )
     nets = _require(nets, "`control_nets` must be finite (no NaN or inf)", _not_finite)
     r = static_int(resolution, "resolution", minimum=1, maximum=MAX_RESOLUTION)
+    if max(nets.shape[-3], nets.shape[-2]) > MAX_DEGREE + 1:
+        raise ValueError(
+            f"`control_nets` must have at most MAX_DEGREE + 1 = {MAX_DEGREE + 1} points per "
+            f"side, got shape {tuple(nets.shape)}"
+        )
+    return Mesh(_patch_vertices(nets, r), _grid_faces(nets.shape[0], r))
+
+
+@functools.partial(jax.jit, static_argnums=1)
+def _patch_vertices(nets: jax.Array, r: int) -> jax.Array:
+    """The `(P (r+1)^2, 3)` vertices of the patches on the `(r+1)^2` parameter grid."""
     grid = jnp.linspace(0, 1, r + 1, dtype=nets.dtype)
-    points = bezier_patch(nets, grid, grid)  # (P, r+1, r+1, 3)
-    num_patches = nets.shape[0]
-    vertices = points.reshape(num_patches * (r + 1) ** 2, 3)
-    return Mesh(vertices, _grid_faces(num_patches, r))
+    return _patch_kernel(nets, grid, grid).reshape(-1, 3)
 
 
 @functools.lru_cache(maxsize=16)
@@ -161,5 +170,6 @@ def teapot(resolution: int = 8, *, dtype=None) -> Mesh:
     **Returns:** a `gfxlab.mesh.Mesh`: vertices `(32 (r+1)^2, 3)`, int32 faces
     `(64 r^2, 3)`.
     """
-    surface = patch_mesh(teapot_patches(dtype=dtype), resolution)
-    return Mesh(surface.vertices, surface.faces[:, ::-1])
+    r = static_int(resolution, "resolution", minimum=1, maximum=MAX_RESOLUTION)
+    nets = teapot_patches(dtype=dtype)
+    return Mesh(_patch_vertices(nets, r), _grid_faces(nets.shape[0], r)[:, ::-1])
