@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -30,20 +32,27 @@ def _unflatten(points: jax.Array, axis_size_shape: tuple[int, ...], axis: int) -
     return points.reshape(points.shape[:axis] + axis_size_shape + points.shape[axis + 1 :])
 
 
-def _floats(*arrays, names: tuple[str, ...]) -> list[jax.Array]:
+def _floats(*arrays, names: tuple[str, ...]) -> list:
     """`common_float(*arrays, names=names)`, with a fast path (no dispatch) for the usual
-    case of JAX arrays already of one floating dtype: the eager fixed overhead of a
-    public call stays small."""
-    first = arrays[0]
-    if all(
+    case of concrete JAX arrays of one floating dtype, possibly with Python numbers
+    (which take that dtype, as JAX's weak types do): keeps the eager fixed overhead of a
+    public call small. Python numbers come back as NumPy scalars, which the jitted
+    kernels take directly."""
+    dtypes = {
+        a.dtype for a in arrays if isinstance(a, jax.Array) and not isinstance(a, jax.core.Tracer)
+    }
+    fast = len(dtypes) == 1 and jnp.issubdtype(next(iter(dtypes)), jnp.floating)
+    fast = fast and all(
         isinstance(a, jax.Array)
         and not isinstance(a, jax.core.Tracer)
-        and a.dtype == getattr(first, "dtype", None)
-        and jnp.issubdtype(a.dtype, jnp.floating)
+        or (type(a) is float and math.isfinite(a))
+        or (type(a) is int and abs(a) < 2**53)
         for a in arrays
-    ):
-        return list(arrays)
-    return common_float(*arrays, names=names)
+    )
+    if not fast:
+        return common_float(*arrays, names=names)
+    dtype = next(iter(dtypes))
+    return [a if isinstance(a, jax.Array) else np.asarray(a, dtype) for a in arrays]
 
 
 def _require(x, message: str, bad, *context):

@@ -7,7 +7,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._checks import as_float, check_last_dim, check_shape
+from .._checks import as_float, check_last_dim, check_shape, common_float
 from ._common import _flat_parameters, _floats, _not_finite, _require, _unflatten
 
 
@@ -88,9 +88,9 @@ class Ellipse(eqx.Module):
     angle: Float[Array, ""]
 
     def __init__(self, center, radii, angle=0.0):
-        self.center, self.radii, self.angle = _floats(
+        self.center, self.radii, self.angle = common_float(
             center, radii, angle, names=("center", "radii", "angle")
-        )
+        )  # JAX arrays: the fields are the leaves `gfxlab.fit` fits
         check_shape(self.center, "center", (2,))
         check_shape(self.radii, "radii", (2,))
         check_shape(self.angle, "angle", ())

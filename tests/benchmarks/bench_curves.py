@@ -94,6 +94,7 @@ def _small_calls():
     u = jnp.array([0.1, 0.5, 0.9])
     knots = curves.clamped_knots(6, 3)
     net = curves.teapot_patches()[:2]
+    weights = jnp.ones(6)
     return {
         "bernstein": lambda: curves.bernstein(3, u),
         "bezier": lambda: curves.bezier(cp, u),
@@ -105,7 +106,7 @@ def _small_calls():
         "bspline_basis": lambda: curves.bspline_basis(knots, 3, u),
         "bspline": lambda: curves.bspline(cp, 3, u),
         "bspline closed": lambda: curves.bspline(cp, 3, u, closed=True),
-        "nurbs": lambda: curves.nurbs(cp, jnp.ones(6), 3, u),
+        "nurbs": lambda: curves.nurbs(cp, weights, 3, u),
         "ellipse": lambda: curves.ellipse(jnp.zeros(2), jnp.array([2.0, 1.0]), 0.3, u),
         "circle": lambda: curves.circle(jnp.zeros(2), 1.5, u),
         "bezier_patch": lambda: curves.bezier_patch(net, u, u),
