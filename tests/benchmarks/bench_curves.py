@@ -47,7 +47,24 @@ def _baseline_curves():
     return importlib.import_module("gfxlab_baseline.curves")
 
 
-def _bspline_case(table: Table, dtype, module, label, *, count=100, degree=3, dim=2):
+def _alternate(fns, *, repeat: int, warmup: int = 1) -> list[float]:
+    """Median wall times of each of `fns`, called in turn `repeat` times (all see the
+    same machine state: on a shared VM speed drifts by tens of percent over seconds)."""
+    for fn in fns:
+        for _ in range(warmup):
+            jax.block_until_ready(fn())
+    times = [[] for _ in fns]
+    for _ in range(repeat):
+        for fn, out in zip(fns, times, strict=True):
+            start = time.perf_counter()
+            jax.block_until_ready(fn())
+            out.append(time.perf_counter() - start)
+    return [statistics.median(t) for t in times]
+
+
+def _bspline_case(table: Table, dtype, modules, *, count=100, degree=3, dim=2, repeat=15):
+    """`modules`: `{label: gfxlab.curves module}` (before/after), timed alternately with
+    SciPy, eagerly and inside a user's `jax.jit`."""
     import scipy.interpolate as si
 
     rng = np.random.default_rng(0)
@@ -57,21 +74,24 @@ def _bspline_case(table: Table, dtype, module, label, *, count=100, degree=3, di
     reference = si.BSpline(knots, cp, degree)
     cp_j, knots_j, u_j = (jnp.asarray(a, dtype=dtype) for a in (cp, knots, u))
     name = jnp.dtype(dtype).name
-    # Ours and SciPy are timed alternately, so both see the same machine state.
-    for how, run in [
-        ("eager", lambda c, t, s: module.bspline(c, degree, s, knots=t)),
-        ("inside jax.jit", jax.jit(lambda c, t, s: module.bspline(c, degree, s, knots=t))),
-    ]:
-        ours, ref = timeit_pair(
-            lambda run=run: run(cp_j, knots_j, u_j), lambda: reference(u), repeat=9, warmup=1
-        )
-        error = np.abs(np.asarray(run(cp_j, knots_j, u_j), np.float64) - reference(u)).max()
-        table.add(
-            f"{label}cubic B-spline, {count} cp, 10^6 u, d={dim}, {name}, {how}",
-            ours,
-            ref,
-            f"max |ours - scipy| = {error:.1e}",
-        )
+    for how in ("eager", "inside jax.jit"):
+        runs = {}
+        for label, module in modules.items():
+
+            def run(c, t, s, module=module):
+                return module.bspline(c, degree, s, knots=t)
+
+            runs[label] = jax.jit(run) if how != "eager" else run
+        calls = [lambda run=run: run(cp_j, knots_j, u_j) for run in runs.values()]
+        *ours, ref = _alternate([*calls, lambda: reference(u)], repeat=repeat)
+        for (label, run), mine in zip(runs.items(), ours, strict=True):
+            error = np.abs(np.asarray(run(cp_j, knots_j, u_j), np.float64) - reference(u)).max()
+            table.add(
+                f"{label}cubic B-spline, {count} cp, 10^6 u, d={dim}, {name}, {how}",
+                mine,
+                ref,
+                f"max |ours - scipy| = {error:.1e}",
+            )
 
 
 def _bezier_case(table: Table):
@@ -95,6 +115,7 @@ def _small_calls():
     knots = curves.clamped_knots(6, 3)
     net = curves.teapot_patches()[:2]
     weights = jnp.ones(6)
+    center, radii = jnp.zeros(2), jnp.array([2.0, 1.0])
     return {
         "bernstein": lambda: curves.bernstein(3, u),
         "bezier": lambda: curves.bezier(cp, u),
@@ -107,8 +128,8 @@ def _small_calls():
         "bspline": lambda: curves.bspline(cp, 3, u),
         "bspline closed": lambda: curves.bspline(cp, 3, u, closed=True),
         "nurbs": lambda: curves.nurbs(cp, weights, 3, u),
-        "ellipse": lambda: curves.ellipse(jnp.zeros(2), jnp.array([2.0, 1.0]), 0.3, u),
-        "circle": lambda: curves.circle(jnp.zeros(2), 1.5, u),
+        "ellipse": lambda: curves.ellipse(center, radii, 0.3, u),
+        "circle": lambda: curves.circle(center, 1.5, u),
         "bezier_patch": lambda: curves.bezier_patch(net, u, u),
         "patch_mesh": lambda: curves.patch_mesh(net, 4),
         "chord_length_parameters": lambda: curves.chord_length_parameters(cp),
@@ -118,20 +139,22 @@ def _small_calls():
 def _overhead_table() -> Table:
     """Eager call vs the same call inside `jax.jit` (a closure over constants, so the
     jitted program does the same work) at a small size: the difference is the eager
-    fixed overhead (checks in Python, one compiled call)."""
+    fixed overhead (checks in Python, one compiled call). Each is the fastest of 300
+    alternated calls: on a loaded machine, medians of 0.1 ms calls measure the
+    scheduler rather than the code."""
     table = Table("curves: eager fixed overhead at a small size (target <= 0.1 ms)", "jax.jit")
     for name, call in _small_calls().items():
         jitted = jax.jit(call)
-        eager_times, jit_times = [], []
-        for _ in range(3):
-            jax.block_until_ready(call())
-            jax.block_until_ready(jitted())
-        for _ in range(200):
-            for fn, out in ((call, eager_times), (jitted, jit_times)):
+        times = ([], [])
+        for fn in (call, jitted):
+            for _ in range(3):
+                jax.block_until_ready(fn())
+        for _ in range(300):
+            for fn, out in zip((call, jitted), times, strict=True):
                 start = time.perf_counter()
                 jax.block_until_ready(fn())
                 out.append(time.perf_counter() - start)
-        eager, jit = statistics.median(eager_times), statistics.median(jit_times)
+        eager, jit = min(times[0]), min(times[1])
         table.add(name, eager, jit, f"overhead {1e6 * (eager - jit):.0f} us")
     return table
 
@@ -141,11 +164,12 @@ def main() -> None:
         "curves: gfxlab (eager and inside jax.jit) vs SciPy BSpline / bezier package", "reference"
     )
     baseline = _baseline_curves()
+    modules = {"": curves}
+    if baseline is not None:
+        revision = os.environ["CURVES_BASELINE"]
+        modules = {f"before ({revision}): ": baseline, "after: ": curves}
     for dtype in (jnp.float64, jnp.float32):
-        if baseline is not None:
-            revision = os.environ["CURVES_BASELINE"]
-            _bspline_case(table, dtype, baseline, f"before ({revision}): ")
-        _bspline_case(table, dtype, curves, "after: " if baseline is not None else "")
+        _bspline_case(table, dtype, modules)
     _bezier_case(table)
     table.print()
     _overhead_table().print()
