@@ -47,9 +47,11 @@ def _baseline_curves():
     return importlib.import_module("gfxlab_baseline.curves")
 
 
-def _alternate(fns, *, repeat: int, warmup: int = 1) -> list[float]:
-    """Median wall times of each of `fns`, called in turn `repeat` times (all see the
-    same machine state: on a shared VM speed drifts by tens of percent over seconds)."""
+def _alternate(fns, *, repeat: int, warmup: int = 1) -> list[tuple[float, float]]:
+    """(median, fastest) wall times of each of `fns`, called in turn `repeat` times (all
+    see the same machine state: on a shared VM speed drifts by tens of percent over
+    seconds, and on an oversubscribed one XLA's multi-threaded loops wait for descheduled
+    threads, so the fastest run is the steadier measure of the code)."""
     for fn in fns:
         for _ in range(warmup):
             jax.block_until_ready(fn())
@@ -59,7 +61,7 @@ def _alternate(fns, *, repeat: int, warmup: int = 1) -> list[float]:
             start = time.perf_counter()
             jax.block_until_ready(fn())
             out.append(time.perf_counter() - start)
-    return [statistics.median(t) for t in times]
+    return [(statistics.median(t), min(t)) for t in times]
 
 
 def _bspline_case(table: Table, dtype, modules, *, count=100, degree=3, dim=2, repeat=15):
@@ -88,9 +90,10 @@ def _bspline_case(table: Table, dtype, modules, *, count=100, degree=3, dim=2, r
             error = np.abs(np.asarray(run(cp_j, knots_j, u_j), np.float64) - reference(u)).max()
             table.add(
                 f"{label}cubic B-spline, {count} cp, 10^6 u, d={dim}, {name}, {how}",
-                mine,
-                ref,
-                f"max |ours - scipy| = {error:.1e}",
+                mine[0],
+                ref[0],
+                f"fastest runs: {1e3 * mine[1]:.1f} vs {1e3 * ref[1]:.1f} ms, "
+                f"{ref[1] / mine[1]:.2f}x; max |ours - scipy| = {error:.1e}",
             )
 
 
