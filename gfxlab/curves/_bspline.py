@@ -249,15 +249,19 @@ def _horner(coefficients: jax.Array, starts: jax.Array, row: jax.Array, u: jax.A
     return jnp.swapaxes(planar.reshape(batch + (dim, u.shape[0])), -1, -2)
 
 
-@functools.partial(jax.jit, static_argnums=3)
-def _bspline_kernel(cp: jax.Array, knots: jax.Array, u: jax.Array, p: int) -> jax.Array:
+@functools.partial(jax.jit, static_argnums=(3, 4))
+def _bspline_kernel(
+    cp: jax.Array, knots: jax.Array, u: jax.Array, p: int, path: str = "auto"
+) -> jax.Array:
     """`bspline` unchecked, one compiled program.
 
     Up to `_POWER_DEGREE`: the span polynomials in power form, re-tabulated per cell of
     the look-up grid of `_cell_spans` (so a `u` finds its coefficients through its cell
     and two comparisons: no search and no look-up of a look-up), then Horner's rule;
     when some cell meets more than two knot values (clustered knots), a binary search
-    instead (`lax.cond`, decided once per call from the knots).
+    instead (`lax.cond`, decided once per call from the knots). `path="cells"` or
+    `"search"` takes one branch only (smaller programs, for callers that know it from
+    concrete knots: `_lookup_path`).
     """
     flat, shape = _flat_parameters(u)
     n = cp.shape[-2]
@@ -276,7 +280,20 @@ def _bspline_kernel(cp: jax.Array, knots: jax.Array, u: jax.Array, p: int) -> ja
     def by_search():
         return _horner(coefficients, starts, _spans(knots, p, n, flat) - p, flat)
 
-    return _unflatten(jax.lax.cond(fits, by_cells, by_search), shape, -2)
+    if path == "auto":
+        return _unflatten(jax.lax.cond(fits, by_cells, by_search), shape, -2)
+    return _unflatten(by_cells() if path == "cells" else by_search(), shape, -2)
+
+
+def _lookup_path(knots, p: int, n: int) -> str:
+    """The branch `_bspline_kernel` takes for these concrete knots."""
+    fits = _cells_fit(knots, p, n)
+    return "cells" if p <= _POWER_DEGREE and bool(fits) else "search"
+
+
+@functools.partial(jax.jit, static_argnums=(1, 2))
+def _cells_fit(knots: jax.Array, p: int, n: int) -> jax.Array:
+    return _cell_spans(knots, p, n, _cell_count(n, p))[-1]
 
 
 def _bspline_from_segments(cp, knots, u, segment, p: int) -> jax.Array:

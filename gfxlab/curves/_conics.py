@@ -24,7 +24,8 @@ def ellipse(
     **Arguments:**
 
     - `center`: `(h, k)`, `(..., 2)`.
-    - `radii`: `(a, b)`, the semi-axes along the (rotated) x and y axes, `(..., 2)`.
+    - `radii`: `(rx, ry)`, the semi-axes along the (rotated) x and y axes (the seed's
+      `a`, `b`), `(..., 2)`.
     - `angle`: rotation in radians, `(...)`.
     - `t`: parameters `(N,)`; `0 <= t < 2 pi` traces the ellipse once.
 
@@ -34,7 +35,7 @@ def ellipse(
         center, radii, angle, t, names=("center", "radii", "angle", "t")
     )
     check_last_dim(center, "center", (2,), "the centre (h, k)")
-    check_last_dim(radii, "radii", (2,), "the semi-axes (a, b)")
+    check_last_dim(radii, "radii", (2,), "the semi-axes (rx, ry)")
     center, radii, angle, t = (
         _require(x, f"`{name}` must be finite (no NaN or inf)", _not_finite)
         for x, name in zip(
@@ -79,7 +80,7 @@ def _circle_kernel(center, radius, t) -> jax.Array:
 class Ellipse(eqx.Module):
     """The parametric ellipse of `ellipse` as a pytree.
 
-    **Fields:** `center` `(2,)`, `radii` `(2,)` (semi-axes `a`, `b`), `angle` (radians).
+    **Fields:** `center` `(2,)`, `radii` `(2,)` (semi-axes `rx`, `ry`), `angle` (radians).
     Call with `t` `(N,)` to get `(N, 2)` points.
     """
 
@@ -108,7 +109,7 @@ class Ellipse(eqx.Module):
         return _ellipse_kernel(self.center, self.radii, self.angle, t)
 
     def normalized(self) -> Ellipse:
-        """The same point set with `a >= b >= 0` and `angle` in `[0, pi)`."""
+        """The same point set with `rx >= ry >= 0` and `angle` in `[0, pi)`."""
         return Ellipse(self.center, *_normalized_axes(self.radii, self.angle))
 
 

@@ -12,7 +12,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._checks import as_float, check_last_dim, check_shape, is_traced, static_int
 from ._bezier import Bezier, _bezier_kernel
-from ._bspline import BSpline, _bspline_kernel
+from ._bspline import BSpline, _bspline_kernel, _lookup_path
 from ._common import MAX_DEGREE, _check_unit_interval, _not_finite, _require
 from ._conics import Ellipse
 from ._knots import _check_degree, _check_in_range, _check_knots, clamped_knots
@@ -253,8 +253,10 @@ def fit_bspline(
     check_shape(parameters, "parameters", (points.shape[0],))
     start = _resample(points, parameters, n)
 
+    path = _lookup_path(knots, p, n)  # one branch: a smaller program to compile
+
     def evaluate(cp, t):  # inputs already checked; parameters stay clipped to the range
-        return _bspline_kernel(cp, knots, t, p)
+        return _bspline_kernel(cp, knots, t, p, path)
 
     cp, parameters, result = _fit_curve(
         evaluate, start, points, parameters, lo, hi, correct_parameters, method, max_steps
@@ -288,7 +290,7 @@ def fit_ellipse(
     - `method`, `max_steps`: passed to `gfxlab.fit.fit`.
     - `full_output`: also return the parameters `t_k` and the `FitResult`.
 
-    **Returns:** the fitted `Ellipse`, normalised (`a >= b`, angle in `[0, pi)`), or
+    **Returns:** the fitted `Ellipse`, normalised (`rx >= ry`, angle in `[0, pi)`), or
     `(Ellipse, t, FitResult)` with `full_output`.
     """
     from ..fit import fit
