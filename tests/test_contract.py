@@ -122,7 +122,34 @@ BASELINES |= {  # the hidden-surface methods and shading
     "render.quadtree_cells": {"quadtree": ([[5]], [[1, 1], [1, 1]])},
 }  # fmt: skip
 # -- curves
-BASELINES |= {}
+_CUBIC_KNOTS = [0.0, 0, 0, 0, 1 / 3, 2 / 3, 1, 1, 1, 1]  # clamped_knots(6, 3)
+_SPLINE_POINTS = [[0.0, 0], [1, 2], [2, -1], [3, 3], [4, 0], [5, 1]]
+_ON_ELLIPSE = [[2.0, 0], [1.4, 0.7], [0, 1], [-1.4, 0.7], [-2, 0], [-1.4, -0.7], [0, -1]]
+BASELINES |= {
+    "curves.split": {"t": 0.5},
+    "curves.bspline_basis": {"knots": _CUBIC_KNOTS, "degree": 3},
+    "curves.bspline": {"control_points": _SPLINE_POINTS, "degree": 3},
+    "curves.nurbs": {
+        "control_points": _SPLINE_POINTS,
+        "weights": [1.0, 2, 1, 1, 0.5, 1],
+        "degree": 3,
+    },
+    "curves.BSpline": {"control_points": _SPLINE_POINTS, "degree": 3},
+    "curves.NURBS": {
+        "control_points": _SPLINE_POINTS,
+        "weights": [1.0, 2, 1, 1, 0.5, 1],
+        "degree": 3,
+    },
+    "curves.Ellipse": {"center": [1.0, 2.0], "radii": [2.0, 1.0], "angle": 0.3},
+    "curves.fit_bezier": {"points": _SPLINE_POINTS, "degree": 2, "max_steps": 5},
+    "curves.fit_bspline": {
+        "points": _SPLINE_POINTS,
+        "degree": 2,
+        "num_control_points": 4,
+        "max_steps": 5,
+    },
+    "curves.fit_ellipse": {"points": _ON_ELLIPSE, "max_steps": 5},
+}
 # -- brdf, color
 
 

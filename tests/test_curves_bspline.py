@@ -232,3 +232,30 @@ def test_bspline_bad_input():
         curves.nurbs_circle(jnp.zeros(3), 1.0)
     with pytest.raises(ValueError, match="too high"):
         curves.BSpline(cp, 5)
+
+
+def test_bspline_evaluation_paths_match_scipy():
+    """Issue 19: `bspline` finds spans through a uniform cell grid (two comparisons per
+    `u`) and evaluates power-form span polynomials; clustered knots take a binary search
+    instead, degrees above 5 the Bernstein form, many curves at once a row gather. Every
+    path equals SciPy to 1e-12, at the knots, just beside them and in between."""
+    rng = np.random.default_rng(7)
+    grid = curves.clamped_knots(30, 3)  # uniform: the cell grid
+    clustered = np.concatenate([[0, 0, 0, 0], 1e-7 * np.arange(1, 6), np.linspace(0.5, 0.9, 21)])
+    clustered = np.concatenate([clustered, [1, 1, 1, 1]])  # 3 knots per cell: the search
+    uneven = np.concatenate([[0] * 4, np.sort(rng.uniform(0, 1, 26)), [1] * 4])
+    for knots, degree, batch in [
+        (np.asarray(grid), 3, ()),
+        (clustered, 3, ()),
+        (uneven, 3, (9,)),  # 18 columns: whole rows gathered
+        (np.asarray(curves.clamped_knots(30, 7)), 7, ()),  # the Bernstein form
+    ]:
+        count = len(knots) - degree - 1
+        cp = rng.normal(size=batch + (count, 2))
+        inner = knots[degree : count + 1]
+        u = np.concatenate(
+            [inner, np.nextafter(inner, 2), np.nextafter(inner, -1), rng.uniform(0, 1, 40)]
+        ).clip(0, 1)
+        reference = np.moveaxis(si.BSpline(knots, np.moveaxis(cp, -2, 0), degree)(u), 0, -2)
+        ours = curves.bspline(cp, degree, u, knots=knots)
+        np.testing.assert_allclose(ours, reference, rtol=0, atol=1e-12, err_msg=f"{knots}")

@@ -10,6 +10,7 @@ import scipy.interpolate as si
 from jax.test_util import check_grads
 
 from gfxlab import curves
+from gfxlab._checks import checked_jit
 from gfxlab.fit import fit
 
 
@@ -75,8 +76,34 @@ def test_fixed_knots_are_named_for_fit_and_have_no_gradient():
     np.testing.assert_array_equal(grads.base_knots, 0)
     assert float(jnp.abs(grads.control_points).sum()) > 0
     nurbs = curves.NURBS(jnp.zeros((5, 2)), jnp.ones(5), 2)
-    assert nurbs.fixed_fields() == ("knots",)
-    assert curves.NURBS(jnp.zeros((5, 2)), jnp.ones(5), 2, fit_knots=True).fixed_fields() == ()
+    assert nurbs.fixed_fields() == ("base_knots",) and nurbs.knot_logits is None
+    np.testing.assert_array_equal(nurbs.knots, curves.clamped_knots(5, 2))
+    free = curves.NURBS(jnp.zeros((5, 2)), jnp.ones(5), 2, fit_knots=True)
+    assert free.knot_logits.shape == (3,)
+
+
+@pytest.mark.parametrize("method", ["gauss_newton", "levenberg_marquardt"])
+def test_fit_never_moves_fixed_knots(method):
+    """Issue 18: with `fit_knots=False` neither least-squares solver changes the knots
+    (they are partitioned out by `fixed_fields`)."""
+    knots = jnp.array([0, 0, 0, 0.3, 0.4, 1, 1, 1.0])
+    u = jnp.linspace(0, 1, 12)
+    target = curves.bspline(jnp.arange(10.0).reshape(5, 2), 2, u, knots=knots)
+    start = curves.BSpline(jnp.zeros((5, 2)), 2, knots)
+    result = fit(lambda c: c(u) - target, start, method=method, max_steps=20)
+    np.testing.assert_array_equal(result.params.knots, knots)
+    np.testing.assert_array_equal(result.params.base_knots, knots)
+    assert result.loss < 1e-12
+
+
+def test_nurbs_fitted_knots_stay_ordered():
+    knots = jnp.array([0, 0, 0, 0.3, 0.4, 1, 1, 1.0])
+    curve = curves.NURBS(jnp.ones((5, 2)), jnp.ones(5), 2, knots, fit_knots=True)
+    np.testing.assert_allclose(curve.knots, knots, atol=1e-12)
+    wild = eqx.tree_at(lambda c: c.knot_logits, curve, jnp.array([40.0, -40.0, 3.0]))
+    assert np.all(np.diff(np.asarray(wild.knots)) >= 0)
+    np.testing.assert_array_equal(np.asarray(wild.knots)[[0, 1, 2, 5, 6, 7]], [0, 0, 0, 1, 1, 1])
+    assert np.all(np.isfinite(np.asarray(wild(jnp.linspace(0, 1, 5)))))
 
 
 def test_fitted_knots_stay_ordered_whatever_the_logits():
@@ -161,7 +188,7 @@ def test_none_nan_and_huge_sizes_are_clear_errors():
         (lambda: curves.bspline(cp, 2, jnp.array([jnp.nan])), "u"),
         (lambda: curves.bernstein(2, jnp.array([jnp.inf])), "u"),
         (lambda: curves.Bezier(nan_cp), "control_points"),
-        (lambda: curves.patch_mesh(jnp.full((4, 4, 3), jnp.inf), 2), "control_net"),
+        (lambda: curves.patch_mesh(jnp.full((4, 4, 3), jnp.inf), 2), "control_nets"),
         (lambda: curves.fit_bezier(jnp.full((6, 2), jnp.nan), 2), "points"),
         (lambda: curves.ellipse([0, jnp.nan], [1, 1], 0.0, u), "center"),
         (lambda: curves.ellipse([0, 0], [1, 1], jnp.inf, u), "angle"),
@@ -190,3 +217,26 @@ def test_none_nan_and_huge_sizes_are_clear_errors():
     ]:
         with pytest.raises(ValueError, match=f"`{name}`"):
             call()
+
+
+def test_errors_name_the_argument_the_user_passed():
+    """Issue 17: NaN in a derived argument is reported under the caller's name, and
+    `parameter_range` checks its knots like `bspline` does."""
+    for call, name in [
+        (lambda: curves.circle([0.0, 0], jnp.nan, jnp.array([0.5])), "radius"),
+        (lambda: curves.nurbs_circle((0.0, 0.0), jnp.inf), "radius"),
+        (lambda: curves.nurbs_circle((0.0, jnp.nan), 1.0), "center"),
+        (lambda: curves.patch_mesh(jnp.full((4, 4, 3), jnp.nan), 2), "control_nets"),
+        (lambda: curves.NURBS(jnp.zeros((4, 2)), jnp.array([1, jnp.nan, 1, 1]), 2), "weights"),
+        (lambda: curves.NURBS(jnp.zeros((4, 2)), jnp.ones(3), 2), "weights"),
+        (lambda: curves.parameter_range(jnp.zeros(7), 3), "knots"),
+        (lambda: curves.parameter_range(jnp.array([0, 0, 1, 0.5, 1, 1]), 2), "knots"),
+        (lambda: curves.parameter_range(jnp.array([0, 0, 0, jnp.nan, 1, 1]), 2), "knots"),
+    ]:
+        with pytest.raises(ValueError, match=f"`{name}`"):
+            call()
+    # Under jit the message is the same (equinox.error_if, recovered by checked_jit).
+    with pytest.raises(ValueError, match="`radius` must be finite"):
+        checked_jit(lambda r: curves.circle([0.0, 0], r, jnp.array([0.5])))(jnp.nan)
+    with pytest.raises(ValueError, match="`knots` must be non-decreasing"):
+        checked_jit(lambda t: curves.parameter_range(t, 2)[0])(jnp.array([0, 0, 1, 0.5, 1, 1.0]))

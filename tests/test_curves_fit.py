@@ -115,3 +115,28 @@ def test_fit_bad_input():
     assert jax.numpy.all(
         jnp.isfinite(jax.grad(lambda p: curves.chord_length_parameters(p).sum())(jnp.ones((3, 2))))
     )
+
+
+def test_fitting_functions_are_documented_drivers():
+    """Issue 17: the fitting functions are drivers (they run `gfxlab.fit.fit`'s loop):
+    under `jax.jit`/`jax.grad` they raise a clear `TypeError`, and their solver settings
+    are checked before any work."""
+    points = jnp.array([[0.0, 0], [1, 2], [2, -1], [3, 3], [4, 0], [5, 1]])
+    for fn, args in [
+        (curves.fit_bezier, (2,)),
+        (curves.fit_bspline, (2, 4)),
+        (curves.fit_ellipse, ()),
+    ]:
+        assert "driver" in fn.__doc__
+        with pytest.raises(TypeError, match=f"`{fn.__name__}` is a driver"):
+            jax.jit(lambda p, fn=fn, args=args: jax.tree_util.tree_leaves(fn(p, *args)))(points)
+        with pytest.raises(TypeError, match=f"`{fn.__name__}` is a driver"):
+            jax.grad(lambda p, fn=fn, args=args: jax.tree_util.tree_leaves(fn(p, *args))[0].sum())(
+                points
+            )
+        with pytest.raises(TypeError, match="`method`"):
+            fn(points, *args, method=None)
+        with pytest.raises(ValueError, match="`method`"):
+            fn(points, *args, method="newton")
+        with pytest.raises(ValueError, match="`max_steps`"):
+            fn(points, *args, max_steps=10**12)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import math
 
 import equinox as eqx
 import jax
@@ -10,17 +11,21 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._checks import as_float, check_shape, common_float, static_int
+from .._checks import as_float, check_shape, static_int
 from ._bezier import _bernstein
 from ._common import (
     _control_points,
     _flat_parameters,
+    _floats,
     _not_finite,
     _require,
     _safe_ratio,
     _unflatten,
 )
 from ._knots import (
+    _cell_count,
+    _cell_index,
+    _cell_spans,
     _check_breakpoints,
     _check_degree,
     _check_in_range,
@@ -86,7 +91,7 @@ def bspline_basis(
 
     **Returns:** `(N, n)` (or `(*U, n)`).
     """
-    knots, u = common_float(knots, u, names=("knots", "u"))
+    knots, u = _floats(knots, u, names=("knots", "u"))
     check_shape(knots, "knots", (None,))
     p = static_int(degree, "degree", minimum=0)
     if knots.shape[0] < p + 2:
@@ -165,13 +170,13 @@ def bspline(
     if closed:
         if knots is None:
             knots = periodic_breakpoints(n, dtype=cp.dtype)
-        cp, knots, u = common_float(cp, knots, u, names=("control_points", "knots", "u"))
+        cp, knots, u = _floats(cp, knots, u, names=("control_points", "knots", "u"))
         knots = _check_breakpoints(knots, n)
         u = _require(u, "`u` must be finite (no NaN or inf)", _not_finite)
         return _closed_kernel(cp, knots, u, p)
     if knots is None:
         knots = clamped_knots(n, p, dtype=cp.dtype)
-    cp, knots, u = common_float(cp, knots, u, names=("control_points", "knots", "u"))
+    cp, knots, u = _floats(cp, knots, u, names=("control_points", "knots", "u"))
     knots = _check_knots(knots, p, n)
     u = _check_in_range(u, knots, p, n)
     return _bspline_kernel(cp, knots, u, p)
@@ -183,11 +188,112 @@ def _closed_kernel(cp: jax.Array, breaks: jax.Array, u: jax.Array, p: int) -> ja
     return _bspline_kernel(wrapped, _periodic_knots(breaks, p), _wrap_parameters(u, breaks), p)
 
 
-@functools.partial(jax.jit, static_argnums=3)
-def _bspline_kernel(cp: jax.Array, knots: jax.Array, u: jax.Array, p: int) -> jax.Array:
-    """`bspline` unchecked, one compiled program: span search, then evaluation."""
-    segment = (_spans(knots, p, cp.shape[-2], u.reshape(-1)) - p).astype(jnp.int32)
-    return _bspline_from_segments(cp, knots, u, segment, p)
+#: Up to this degree `bspline` evaluates each span's polynomial in the power form by
+#: Horner's rule (cheapest; for degree <= 5 its coefficients are within ~300x the control
+#: points, so the rounding stays ~1e-14 relative); above it, in Bernstein form.
+_POWER_DEGREE = 5
+
+
+@functools.cache
+def _power_coefficients(p: int) -> np.ndarray:
+    """`(p+1, p+1)` matrix taking a span's Bezier points `b_j` to the coefficients `a_k`
+    of `sum_k a_k x^k`, `x` the local parameter in `[0, 1]`:
+    `a_k = C(p, k) sum_j C(k, j) (-1)^(k-j) b_j` (forward differences)."""
+    matrix = np.zeros((p + 1, p + 1))
+    for k in range(p + 1):
+        for j in range(k + 1):
+            matrix[k, j] = math.comb(p, k) * math.comb(k, j) * (-1) ** (k - j)
+    return matrix
+
+
+def _power_segments(cp: jax.Array, knots: jax.Array, p: int) -> tuple[jax.Array, jax.Array]:
+    """Every span `s = p..n-1` as a polynomial in `u - t_s`: coefficients
+    `(..., n-p, p+1, d)` (lowest power first) and the span starts `t_s`, `(n-p,)`."""
+    n = cp.shape[-2]
+    matrix = jnp.asarray(_power_coefficients(p), cp.dtype)
+    power = jnp.einsum("kj,...sjd->...skd", matrix, _bezier_segments(cp, knots, p))
+    starts = knots[p:n]
+    inverse = _safe_ratio(jnp.ones_like(starts), knots[p + 1 : n + 1] - starts)
+    scale = inverse[:, None] ** np.arange(p + 1)  # x^k = (u - t_s)^k / h^k
+    return power * scale[..., None], starts
+
+
+def _horner(coefficients: jax.Array, starts: jax.Array, row: jax.Array, u: jax.Array):
+    """`sum_k c_k (u - t)^k` with the coefficients `(..., R, p+1, d)` and start `t` of
+    table row `row` per `u` (`(N,)`): `(..., N, d)`.
+
+    Each output column does 1-D look-ups of scalars (they fuse with the arithmetic into
+    one pass over `u`); the columns are computed planar, `(..., d, N)`, then transposed.
+    """
+    p = coefficients.shape[-2] - 1
+
+    def look_up(table):
+        return table.at[row].get(mode="promise_in_bounds")
+
+    x = u - look_up(starts)
+    batch, dim = coefficients.shape[:-3], coefficients.shape[-1]
+    columns = jnp.moveaxis(coefficients, -1, -3).reshape((-1,) + coefficients.shape[-3:-1])
+    if columns.shape[0] <= 16:
+        planar = []
+        for column in columns:  # (R, p+1)
+            value = look_up(column[:, p])
+            for k in range(p - 1, -1, -1):
+                value = value * x + look_up(column[:, k])
+            planar.append(value)
+        planar = jnp.stack(planar)
+    else:  # many curves at once: gather whole rows
+        rows = jnp.take(columns, row, axis=1, mode="clip")  # (B d, N, p+1)
+        planar = rows[..., p]
+        for k in range(p - 1, -1, -1):
+            planar = planar * x + rows[..., k]
+    return jnp.swapaxes(planar.reshape(batch + (dim, u.shape[0])), -1, -2)
+
+
+@functools.partial(jax.jit, static_argnums=(3, 4))
+def _bspline_kernel(
+    cp: jax.Array, knots: jax.Array, u: jax.Array, p: int, path: str = "auto"
+) -> jax.Array:
+    """`bspline` unchecked, one compiled program.
+
+    Up to `_POWER_DEGREE`: the span polynomials in power form, re-tabulated per cell of
+    the look-up grid of `_cell_spans` (so a `u` finds its coefficients through its cell
+    and two comparisons: no search and no look-up of a look-up), then Horner's rule;
+    when some cell meets more than two knot values (clustered knots), a binary search
+    instead (`lax.cond`, decided once per call from the knots). `path="cells"` or
+    `"search"` takes one branch only (smaller programs, for callers that know it from
+    concrete knots: `_lookup_path`).
+    """
+    flat, shape = _flat_parameters(u)
+    n = cp.shape[-2]
+    if p > _POWER_DEGREE:
+        segment = (_spans(knots, p, n, flat) - p).astype(jnp.int32)
+        return _bspline_from_segments(cp, knots, u, segment, p)
+    coefficients, starts = _power_segments(cp, knots, p)
+    cells = _cell_count(n, p)
+    origin, inverse_width, b1, b2, spans, fits = _cell_spans(knots, p, n, cells)
+
+    def by_cells():
+        rows = spans.reshape(-1) - p  # the segment of every (cell, j)
+        row = _cell_index(flat, origin, inverse_width, b1, b2, cells)
+        return _horner(coefficients[..., rows, :, :], starts[rows], row, flat)
+
+    def by_search():
+        return _horner(coefficients, starts, _spans(knots, p, n, flat) - p, flat)
+
+    if path == "auto":
+        return _unflatten(jax.lax.cond(fits, by_cells, by_search), shape, -2)
+    return _unflatten(by_cells() if path == "cells" else by_search(), shape, -2)
+
+
+def _lookup_path(knots, p: int, n: int) -> str:
+    """The branch `_bspline_kernel` takes for these concrete knots."""
+    fits = _cells_fit(knots, p, n)
+    return "cells" if p <= _POWER_DEGREE and bool(fits) else "search"
+
+
+@functools.partial(jax.jit, static_argnums=(1, 2))
+def _cells_fit(knots: jax.Array, p: int, n: int) -> jax.Array:
+    return _cell_spans(knots, p, n, _cell_count(n, p))[-1]
 
 
 def _bspline_from_segments(cp, knots, u, segment, p: int) -> jax.Array:

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import math
+
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._checks import as_float, is_traced, value_error_if
+from .._checks import as_float, common_float, is_traced, value_error_if
 
 #: Largest degree of a Bezier curve or patch (`bernstein`, `elevate_degree`): the basis
 #: table grows with the degree, so larger values are refused before allocating.
@@ -30,6 +32,29 @@ def _unflatten(points: jax.Array, axis_size_shape: tuple[int, ...], axis: int) -
     return points.reshape(points.shape[:axis] + axis_size_shape + points.shape[axis + 1 :])
 
 
+def _floats(*arrays, names: tuple[str, ...]) -> list:
+    """`common_float(*arrays, names=names)`, with a fast path (no dispatch) for the usual
+    case of concrete JAX arrays of one floating dtype, possibly with Python numbers
+    (which take that dtype, as JAX's weak types do): keeps the eager fixed overhead of a
+    public call small. Python numbers come back as NumPy scalars, which the jitted
+    kernels take directly."""
+    dtypes = {
+        a.dtype for a in arrays if isinstance(a, jax.Array) and not isinstance(a, jax.core.Tracer)
+    }
+    fast = len(dtypes) == 1 and jnp.issubdtype(next(iter(dtypes)), jnp.floating)
+    fast = fast and all(
+        isinstance(a, jax.Array)
+        and not isinstance(a, jax.core.Tracer)
+        or (type(a) is float and math.isfinite(a))
+        or (type(a) is int and abs(a) < 2**53)
+        for a in arrays
+    )
+    if not fast:
+        return common_float(*arrays, names=names)
+    dtype = next(iter(dtypes))
+    return [a if isinstance(a, jax.Array) else np.asarray(a, dtype) for a in arrays]
+
+
 def _require(x, message: str, bad, *context):
     """`x`, after raising `ValueError(message)` where `bad(x, *context)` holds.
 
@@ -38,7 +63,7 @@ def _require(x, message: str, bad, *context):
     """
     if is_traced((x, context)):
         return value_error_if(x, bad(x, *context), message)
-    if np.any(bad(np.asarray(x), *(np.asarray(c) for c in context))):
+    if np.asarray(bad(np.asarray(x), *(np.asarray(c) for c in context))).any():
         raise ValueError(message)
     return x
 
@@ -54,7 +79,7 @@ def _require_between(x, lo, hi, message: str):
         # much cheaper under `jit` than a per-entry mask on 10^6 parameters.
         return value_error_if(x, ~((jnp.min(x) >= lo) & (jnp.max(x) <= hi)), message)
     values = np.asarray(x)
-    if values.size and not (np.min(values) >= np.asarray(lo) and np.max(values) <= np.asarray(hi)):
+    if values.size and not (values.min() >= lo and values.max() <= hi):
         raise ValueError(message)
     return x
 
@@ -65,8 +90,15 @@ def _check_unit_interval(u: jax.Array, name: str = "u") -> jax.Array:
     )
 
 
+def _as_float(x, name: str) -> jax.Array:
+    """`as_float(x, name)`, returning a floating JAX array as it is (no dispatch)."""
+    if isinstance(x, jax.Array) and jnp.issubdtype(x.dtype, jnp.floating):
+        return x
+    return as_float(x, name)
+
+
 def _control_points(control_points, name: str = "control_points") -> jax.Array:
-    cp = as_float(control_points, name)
+    cp = _as_float(control_points, name)
     if cp.ndim < 2 or cp.shape[-2] < 1:
         raise ValueError(
             f"`{name}` must have shape (..., n+1, d): at least one point of dimension d, "

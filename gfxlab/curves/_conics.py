@@ -8,7 +8,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._checks import as_float, check_last_dim, check_shape, common_float
-from ._common import _flat_parameters, _not_finite, _require, _unflatten
+from ._common import _flat_parameters, _floats, _not_finite, _require, _unflatten
 
 
 def ellipse(
@@ -24,17 +24,18 @@ def ellipse(
     **Arguments:**
 
     - `center`: `(h, k)`, `(..., 2)`.
-    - `radii`: `(a, b)`, the semi-axes along the (rotated) x and y axes, `(..., 2)`.
+    - `radii`: `(rx, ry)`, the semi-axes along the (rotated) x and y axes (the seed's
+      `a`, `b`), `(..., 2)`.
     - `angle`: rotation in radians, `(...)`.
     - `t`: parameters `(N,)`; `0 <= t < 2 pi` traces the ellipse once.
 
     **Returns:** `(..., N, 2)`.
     """
-    center, radii, angle, t = common_float(
+    center, radii, angle, t = _floats(
         center, radii, angle, t, names=("center", "radii", "angle", "t")
     )
     check_last_dim(center, "center", (2,), "the centre (h, k)")
-    check_last_dim(radii, "radii", (2,), "the semi-axes (a, b)")
+    check_last_dim(radii, "radii", (2,), "the semi-axes (rx, ry)")
     center, radii, angle, t = (
         _require(x, f"`{name}` must be finite (no NaN or inf)", _not_finite)
         for x, name in zip(
@@ -61,15 +62,25 @@ def circle(
     t: Float[ArrayLike, " N"],
 ) -> Float[Array, "*batch N 2"]:
     """The parametric circle `(h + r cos t, k + r sin t)`: an ellipse with `a = b = r`."""
-    radius = as_float(radius, "radius")
+    center, radius, t = _floats(center, radius, t, names=("center", "radius", "t"))
+    check_last_dim(center, "center", (2,), "the centre (h, k)")
+    center, radius, t = (
+        _require(x, f"`{name}` must be finite (no NaN or inf)", _not_finite)
+        for x, name in zip((center, radius, t), ("center", "radius", "t"), strict=True)
+    )
+    return _circle_kernel(center, radius, t)
+
+
+@jax.jit
+def _circle_kernel(center, radius, t) -> jax.Array:
     radii = jnp.stack([radius, radius], axis=-1)
-    return ellipse(center, radii, jnp.zeros_like(radius), t)
+    return _ellipse_kernel(center, radii, jnp.zeros_like(radius), t)
 
 
 class Ellipse(eqx.Module):
     """The parametric ellipse of `ellipse` as a pytree.
 
-    **Fields:** `center` `(2,)`, `radii` `(2,)` (semi-axes `a`, `b`), `angle` (radians).
+    **Fields:** `center` `(2,)`, `radii` `(2,)` (semi-axes `rx`, `ry`), `angle` (radians).
     Call with `t` `(N,)` to get `(N, 2)` points.
     """
 
@@ -80,7 +91,7 @@ class Ellipse(eqx.Module):
     def __init__(self, center, radii, angle=0.0):
         self.center, self.radii, self.angle = common_float(
             center, radii, angle, names=("center", "radii", "angle")
-        )
+        )  # JAX arrays: the fields are the leaves `gfxlab.fit` fits
         check_shape(self.center, "center", (2,))
         check_shape(self.radii, "radii", (2,))
         check_shape(self.angle, "angle", ())
@@ -98,7 +109,7 @@ class Ellipse(eqx.Module):
         return _ellipse_kernel(self.center, self.radii, self.angle, t)
 
     def normalized(self) -> Ellipse:
-        """The same point set with `a >= b >= 0` and `angle` in `[0, pi)`."""
+        """The same point set with `rx >= ry >= 0` and `angle` in `[0, pi)`."""
         return Ellipse(self.center, *_normalized_axes(self.radii, self.angle))
 
 

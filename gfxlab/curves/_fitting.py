@@ -10,10 +10,10 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._checks import as_float, check_last_dim, check_shape, static_int
+from .._checks import as_float, check_last_dim, check_shape, is_traced, static_int
 from ._bezier import Bezier, _bezier_kernel
-from ._bspline import BSpline, _bspline_kernel
-from ._common import _check_unit_interval, _not_finite, _require
+from ._bspline import BSpline, _bspline_kernel, _lookup_path
+from ._common import MAX_DEGREE, _check_unit_interval, _not_finite, _require
 from ._conics import Ellipse
 from ._knots import _check_degree, _check_in_range, _check_knots, clamped_knots
 
@@ -117,6 +117,23 @@ def _foot_point_step(evaluate, cp, t, data, lo, hi):
     return jnp.clip(t - step, lo, hi)
 
 
+def _check_driver(function: str, method, max_steps, *arrays) -> None:
+    """The checks of a fitting driver: called eagerly (it runs `gfxlab.fit.fit`'s Python
+    loop), with a known `method` and a bounded `max_steps`."""
+    from ..fit import MAX_STEPS, METHODS
+
+    if is_traced(arrays):
+        raise TypeError(
+            f"`{function}` is a driver that runs compiled solver steps in a Python loop "
+            "(`gfxlab.fit.fit`); call it outside `jax.jit`, `jax.grad` and `jax.vmap`"
+        )
+    if not isinstance(method, str):
+        raise TypeError(f"`method` must be one of {sorted(METHODS)}, got {method!r:.60}")
+    if method not in METHODS:
+        raise ValueError(f"`method` must be one of {sorted(METHODS)}, got {method!r:.60}")
+    static_int(max_steps, "max_steps", minimum=1, maximum=MAX_STEPS)
+
+
 def _fit_points(points, name="points") -> jax.Array:
     points = as_float(points, name)
     check_shape(points, name, (None, None))
@@ -135,6 +152,11 @@ def fit_bezier(
 ):
     """Fit a degree-`degree` Bezier curve to a sequence of points by least squares.
 
+    A **driver**, like `gfxlab.fit.fit`, which it calls: it runs compiled solver steps in
+    a Python loop, so call it eagerly, not inside `jax.jit`, `jax.grad` or `jax.vmap`
+    (there it raises a clear `TypeError`). To differentiate through a fit, evaluate
+    `bezier` inside your own `optimistix` solve.
+
     The control points minimise `sum_k |P(u_k) - x_k|^2` (solved with `gfxlab.fit.fit`)
     for parameters `u_k` given, or by chord length. With `correct_parameters=True` the
     parameters are then optimised too (joint Levenberg-Marquardt), which moves each
@@ -151,8 +173,9 @@ def fit_bezier(
 
     **Returns:** a `Bezier`, or `(Bezier, parameters, FitResult)` with `full_output`.
     """
+    _check_driver("fit_bezier", method, max_steps, points, parameters)
     points = _fit_points(points)
-    degree = static_int(degree, "degree", minimum=1)
+    degree = static_int(degree, "degree", minimum=1, maximum=MAX_DEGREE)
     if points.shape[0] < degree + 1:
         raise ValueError(
             f"`points` must hold at least degree + 1 = {degree + 1} points to fit a degree-"
@@ -196,6 +219,8 @@ def fit_bspline(
     least squares (the control points of `scipy.interpolate.make_lsq_spline` for the
     same knots and parameters).
 
+    A **driver** (see `fit_bezier`): call it eagerly, not inside `jax.jit`/`grad`/`vmap`.
+
     **Arguments:**
 
     - `points`: `(N, d)` data in order along the curve, `N >= num_control_points`.
@@ -209,6 +234,7 @@ def fit_bspline(
 
     **Returns:** a `BSpline`, or `(BSpline, parameters, FitResult)` with `full_output`.
     """
+    _check_driver("fit_bspline", method, max_steps, points, knots, parameters)
     points = _fit_points(points)
     n, p = _check_degree(num_control_points, degree)
     if points.shape[0] < n:
@@ -227,8 +253,10 @@ def fit_bspline(
     check_shape(parameters, "parameters", (points.shape[0],))
     start = _resample(points, parameters, n)
 
+    path = _lookup_path(knots, p, n)  # one branch: a smaller program to compile
+
     def evaluate(cp, t):  # inputs already checked; parameters stay clipped to the range
-        return _bspline_kernel(cp, knots, t, p)
+        return _bspline_kernel(cp, knots, t, p, path)
 
     cp, parameters, result = _fit_curve(
         evaluate, start, points, parameters, lo, hi, correct_parameters, method, max_steps
@@ -247,6 +275,8 @@ def fit_ellipse(
 ):
     """Fit an ellipse to noisy points by geometric least squares.
 
+    A **driver** (see `fit_bezier`): call it eagerly, not inside `jax.jit`/`grad`/`vmap`.
+
     Minimises `sum_k |E(t_k) - x_k|^2` over the ellipse (centre, semi-axes, angle) and
     one parameter `t_k` per point, so the residuals are true point-to-curve offsets
     at convergence. The start (unless `initial` is given) comes from the points'
@@ -260,11 +290,12 @@ def fit_ellipse(
     - `method`, `max_steps`: passed to `gfxlab.fit.fit`.
     - `full_output`: also return the parameters `t_k` and the `FitResult`.
 
-    **Returns:** the fitted `Ellipse`, normalised (`a >= b`, angle in `[0, pi)`), or
+    **Returns:** the fitted `Ellipse`, normalised (`rx >= ry`, angle in `[0, pi)`), or
     `(Ellipse, t, FitResult)` with `full_output`.
     """
     from ..fit import fit
 
+    _check_driver("fit_ellipse", method, max_steps, points, initial)
     points = _fit_points(points)
     check_last_dim(points, "points", (2,), "2D points")
     if points.shape[0] < 5:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -33,9 +35,17 @@ def clamped_knots(num_control_points: int, degree: int, *, dtype=None) -> Float[
     `p + 1` ones. The curve starts at the first control point and ends at the last.
     """
     n, p = _check_degree(num_control_points, degree)
+    return _clamped_knots(n, p, _float_dtype(dtype))
+
+
+@functools.lru_cache(maxsize=64)
+def _clamped_knots(n: int, p: int, dtype) -> jax.Array:
+    """Cached (a JAX array is immutable): the default knots of `bspline` cost no
+    dispatch on repeated eager calls."""
     interior = np.arange(1, n - p) / (n - p)
     knots = np.concatenate([np.zeros(p + 1), interior, np.ones(p + 1)])
-    return jnp.asarray(knots, dtype=_float_dtype(dtype))
+    with jax.ensure_compile_time_eval():
+        return jnp.asarray(knots, dtype=dtype)
 
 
 def _check_degree(num_control_points, degree) -> tuple[int, int]:
@@ -57,42 +67,59 @@ def _check_knots(knots: jax.Array, degree: int, num_control_points: int) -> jax.
             f"`knots` must have num_control_points + degree + 1 = {num_control_points} + "
             f"{degree} + 1 = {expected} entries, got {knots.shape[0]}"
         )
-    knots = _require(knots, "`knots` must be finite (no NaN or inf)", _not_finite)
-    knots = _require(
-        knots,
-        "`knots` must be non-decreasing (t_0 <= t_1 <= ... <= t_m)",
-        lambda t: t[1:] < t[:-1],
-    )
-    return _require(
-        knots,
-        f"`knots` give an empty parameter range: t_p = t_{degree} must be less than "
-        f"t_n = t_{num_control_points}",
-        lambda t: t[degree] >= t[num_control_points],
-    )
+    checks = [
+        ("`knots` must be finite (no NaN or inf)", _not_finite),
+        ("`knots` must be non-decreasing (t_0 <= t_1 <= ... <= t_m)", lambda t: t[1:] < t[:-1]),
+        (
+            f"`knots` give an empty parameter range: t_p = t_{degree} must be less than "
+            f"t_n = t_{num_control_points}",
+            lambda t: t[degree] >= t[num_control_points],
+        ),
+    ]
+    if not is_traced(knots):  # one conversion, NumPy checks: no dispatch
+        values = np.asarray(knots)
+        for message, bad in checks:
+            if np.asarray(bad(values)).any():
+                raise ValueError(message)
+        return knots
+    for message, bad in checks:
+        knots = _require(knots, message, bad)
+    return knots
 
 
 def parameter_range(
     knots: Float[ArrayLike, " m+1"], degree: int
 ) -> tuple[Float[Array, ""], Float[Array, ""]]:
     """The valid parameter range `(t_p, t_n)` of a degree-`p` B-spline with these knots
-    (`n = m - p` control points): where the basis functions sum to one."""
+    (`n = m - p` control points): where the basis functions sum to one.
+
+    **Raises:** `ValueError` for knots that are not finite and non-decreasing, or that
+    leave an empty range (`t_p = t_n`); `TypeError` for `None` or a non-int degree.
+    """
     knots = as_float(knots, "knots")
     check_shape(knots, "knots", (None,))
-    p = static_int(degree, "degree", minimum=0)
+    p = static_int(degree, "degree", minimum=0, maximum=MAX_BSPLINE_DEGREE)
     if knots.shape[0] < p + 2:
         raise ValueError(
             f"`degree` {p} is too high for {knots.shape[0]} knots (need at least degree + 2)"
         )
-    return knots[p], knots[knots.shape[0] - p - 1]
+    n = knots.shape[0] - p - 1
+    return _range_kernel(_check_knots(knots, p, n), p, n)
+
+
+@functools.partial(jax.jit, static_argnums=(1, 2))
+def _range_kernel(knots: jax.Array, p: int, n: int) -> tuple[jax.Array, jax.Array]:
+    return knots[p], knots[n]
 
 
 def _check_in_range(
     u: jax.Array, knots: jax.Array, degree: int, n: int, name: str = "u"
 ) -> jax.Array:
+    bounds = knots if is_traced(knots) else np.asarray(knots)  # no dispatch eagerly
     return _require_between(
         u,
-        knots[degree],
-        knots[n],
+        bounds[degree],
+        bounds[n],
         f"`{name}` must lie in the B-spline's parameter range [t_p, t_n] (see `parameter_range`)",
     )
 
@@ -117,15 +144,74 @@ def _span_search(knots: jax.Array, u: jax.Array) -> jax.Array:
     return jax.lax.fori_loop(0, first.bit_length(), halve, jnp.zeros(u.shape, jnp.int32))
 
 
-def _spans(knots: jax.Array, degree: int, n: int, u: jax.Array) -> jax.Array:
-    """For each `u`, the index `s` of its knot span, `t_s <= u < t_{s+1}`, restricted to
-    non-empty spans in `[p, n-1]` (so `u = t_n` belongs to the last non-empty span)."""
+def _valid_spans(knots: jax.Array, degree: int, n: int) -> tuple[jax.Array, jax.Array]:
+    """The first and last non-empty spans in `[p, n-1]`."""
     m = knots.shape[0] - 1
     index = jnp.arange(m)
     valid = (knots[1:] > knots[:-1]) & (index >= degree) & (index <= n - 1)
-    first = jnp.argmax(valid)
-    last = m - 1 - jnp.argmax(valid[::-1])
+    return jnp.argmax(valid), m - 1 - jnp.argmax(valid[::-1])
+
+
+def _spans(knots: jax.Array, degree: int, n: int, u: jax.Array) -> jax.Array:
+    """For each `u`, the index `s` of its knot span, `t_s <= u < t_{s+1}`, restricted to
+    non-empty spans in `[p, n-1]` (so `u = t_n` belongs to the last non-empty span)."""
+    first, last = _valid_spans(knots, degree, n)
     return jnp.clip(_span_search(knots, u), first, last)
+
+
+#: Most cells of the span look-up grid (`_cell_spans`); beyond, the binary search runs.
+_MAX_CELLS = 1 << 16
+
+
+def _cell_count(n: int, degree: int) -> int:
+    """Cells of the span look-up grid for `n` control points: four per span, so that
+    for knots no closer than a quarter of the mean spacing every cell meets at most two
+    distinct knot values."""
+    return min(4 * (n - degree), _MAX_CELLS)
+
+
+def _cell_spans(knots: jax.Array, degree: int, n: int, cells: int):
+    """A span look-up grid: `cells` uniform cells on the parameter range `[t_p, t_n]`.
+
+    For cell `c` (widened by a few ulps on each side, so that rounding in `_cell_index`
+    never puts a `u` in a cell that misses its knots), `b1[c] < b2[c]` are the first two
+    distinct knot values from the cell's start on, and `spans[c]` the span of a `u` in
+    the cell below `b1`, in `[b1, b2)` and at or above `b2` (clipped like `_spans`).
+    Computed once per call from the knots alone (`O(cells log m)`).
+
+    Returns `(origin, inverse cell width, b1, b2, spans (cells, 3), fits)`, where `fits`
+    says that no cell meets a third distinct knot value; where it does not hold, use
+    `_spans` (see `_bspline_kernel`).
+    """
+    first, last = _valid_spans(knots, degree, n)
+    lo, hi = knots[degree], knots[n]
+    slack = 64 * jnp.finfo(knots.dtype).eps * (jnp.abs(lo) + jnp.abs(hi))
+    edges = lo + (hi - lo) * (jnp.arange(cells + 1, dtype=knots.dtype) / cells)
+    padded = jnp.concatenate([knots, jnp.full((2,), jnp.inf, knots.dtype)])
+
+    # Small tables: all comparisons at once (one fused pass, no loop); large: by sorting.
+    method = "compare_all" if (cells + 1) * knots.shape[0] <= 1 << 20 else "sort"
+
+    def count(x):  # how many knots are <= x
+        return jnp.searchsorted(knots, x, side="right", method=method).astype(jnp.int32)
+
+    below = count(edges[:-1] - slack)
+    b1 = padded[below]
+    past_b1 = count(b1)
+    b2 = padded[past_b1]
+    past_b2 = count(b2)
+    fits = jnp.all(padded[past_b2] > edges[1:] + slack)
+    spans = jnp.clip(jnp.stack([below, past_b1, past_b2], axis=-1) - 1, first, last)
+    return lo, cells / (hi - lo), b1, b2, spans, fits
+
+
+def _cell_index(u: jax.Array, origin, inverse_width, b1, b2, cells: int) -> jax.Array:
+    """The row `3 c + j` of `u` in the tables of `_cell_spans`: its cell `c` and `j`, the
+    number of the cell's two knot values at or below it (two 1-D look-ups, no search)."""
+    cell = jnp.clip(((u - origin) * inverse_width).astype(jnp.int32), 0, cells - 1)
+    above_b1 = u >= b1.at[cell].get(mode="promise_in_bounds")
+    above_b2 = u >= b2.at[cell].get(mode="promise_in_bounds")
+    return 3 * cell + above_b1.astype(jnp.int32) + above_b2.astype(jnp.int32)
 
 
 def _knots_for(cp: jax.Array, degree: int, knots) -> tuple[jax.Array, int]:
@@ -145,7 +231,13 @@ def periodic_breakpoints(num_control_points: int, *, dtype=None) -> Float[Array,
     """Uniform breakpoints `0, 1/n, ..., 1` of a closed B-spline with `n` control points
     (one period, `u` in `[0, 1]`)."""
     n = static_int(num_control_points, "num_control_points", minimum=2, maximum=MAX_CONTROL_POINTS)
-    return jnp.linspace(0, 1, n + 1, dtype=_float_dtype(dtype))
+    return _periodic_breakpoints(n, _float_dtype(dtype))
+
+
+@functools.lru_cache(maxsize=64)
+def _periodic_breakpoints(n: int, dtype) -> jax.Array:
+    with jax.ensure_compile_time_eval():  # cached: a constant, not a tracer
+        return jnp.asarray(np.linspace(0, 1, n + 1), dtype=dtype)
 
 
 def _check_breakpoints(breaks: jax.Array, n: int) -> jax.Array:

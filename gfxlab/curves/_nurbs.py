@@ -11,14 +11,16 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._checks import as_float, check_shape, common_float
+from .._checks import as_float, check_shape
 from ._bspline import _bspline_kernel
-from ._common import _control_points, _require
+from ._common import _control_points, _floats, _not_finite, _require
 from ._knots import (
     _check_degree,
     _check_in_range,
     _check_knots,
+    _knot_logits,
     _knots_for,
+    _knots_from_logits,
     clamped_knots,
     parameter_range,
 )
@@ -41,24 +43,28 @@ def nurbs(
     **Returns:** `(..., N, d)`.
     """
     cp = _control_points(control_points)
-    cp, weights = common_float(cp, weights, names=("control_points", "weights"))
-    if weights.shape != cp.shape[:-1]:
-        raise ValueError(
-            f"`weights` must have shape {tuple(cp.shape[:-1])} (one per control point), "
-            f"got {tuple(weights.shape)}"
-        )
-    weights = _require(
-        weights, "`weights` must all be positive and finite", lambda w: ~((w > 0) & (w < np.inf))
-    )
+    cp, weights = _floats(cp, weights, names=("control_points", "weights"))
+    weights = _check_weights(weights, cp)
     n, p = _check_degree(cp.shape[-2], degree)
     if knots is None:
         knots = clamped_knots(n, p, dtype=cp.dtype)
-    cp, weights, knots, u = common_float(
+    cp, weights, knots, u = _floats(
         cp, weights, knots, u, names=("control_points", "weights", "knots", "u")
     )
     knots = _check_knots(knots, p, n)
     u = _check_in_range(u, knots, p, n)
     return _nurbs_kernel(cp, weights, knots, u, p)
+
+
+def _check_weights(weights: jax.Array, cp: jax.Array) -> jax.Array:
+    if weights.shape != cp.shape[:-1]:
+        raise ValueError(
+            f"`weights` must have shape {tuple(cp.shape[:-1])} (one per control point), "
+            f"got {tuple(weights.shape)}"
+        )
+    return _require(
+        weights, "`weights` must all be positive and finite", lambda w: ~((w > 0) & (w < np.inf))
+    )
 
 
 @functools.partial(jax.jit, static_argnums=4)
@@ -78,9 +84,11 @@ def nurbs_circle(
     **Returns:** a `NURBS` on `u` in `[0, 1]`, starting and ending at
     `center + (radius, 0)` and running counter-clockwise (not at constant speed).
     """
-    center, radius = common_float(center, radius, names=("center", "radius"))
+    center, radius = _floats(center, radius, names=("center", "radius"))
     check_shape(center, "center", (2,))
     check_shape(radius, "radius", ())
+    center = _require(center, "`center` must be finite (no NaN or inf)", _not_finite)
+    radius = _require(radius, "`radius` must be finite (no NaN or inf)", _not_finite)
     square = jnp.array(
         [[1, 0], [1, 1], [0, 1], [-1, 1], [-1, 0], [-1, -1], [0, -1], [1, -1], [1, 0]],
         dtype=center.dtype,
@@ -92,33 +100,55 @@ def nurbs_circle(
 
 
 class NURBS(eqx.Module):
-    """A rational B-spline as a pytree (see `nurbs`); knots are held fixed under
-    differentiation unless `fit_knots=True`.
+    """A rational B-spline as a pytree (see `nurbs`).
 
-    **Fields:** `control_points` `(..., n, d)`, `weights` `(..., n)`, `knots`, `degree`.
+    **Fields:**
+
+    - `control_points` `(..., n, d)` and `weights` `(..., n)` (positive), fitted by
+      `gfxlab.fit`.
+    - `base_knots`: the knots as given, `(n + p + 1,)`, held fixed (`fixed_fields()`,
+      and behind `lax.stop_gradient`).
+    - `knot_logits`: with `fit_knots=True`, the logs of the span widths inside the
+      parameter range, `(n - p,)`, so the fitted knots stay increasing whatever the
+      optimiser does (a monotone reparametrisation, as in `BSpline`); `None` otherwise.
+    - `degree`, `fit_knots`: static.
+
+    The property `knots` is the knot vector in use.
     """
 
     control_points: Float[Array, "*batch n d"]
     weights: Float[Array, "*batch n"]
-    knots: Float[Array, " n+p+1"]
+    base_knots: Float[Array, " n+p+1"]
+    knot_logits: Float[Array, " s"] | None
     degree: int = eqx.field(static=True)
     fit_knots: bool = eqx.field(static=True)
 
     def __init__(self, control_points, weights, degree: int, knots=None, *, fit_knots=False):
         cp = _control_points(control_points)
-        self.knots, self.degree = _knots_for(cp, degree, knots)
+        self.base_knots, self.degree = _knots_for(cp, degree, knots)
         self.control_points = cp
-        self.weights = as_float(weights, "weights")
+        self.weights = _check_weights(as_float(weights, "weights").astype(cp.dtype), cp)
         self.fit_knots = bool(fit_knots)
+        n = cp.shape[-2]
+        self.knot_logits = _knot_logits(self.base_knots, self.degree, n) if self.fit_knots else None
 
     def fixed_fields(self) -> tuple[str, ...]:
-        """Fields `gfxlab.fit` holds fixed: the knots, unless `fit_knots=True`."""
-        return () if self.fit_knots else ("knots",)
+        """Fields `gfxlab.fit` holds fixed: the given knots (with `fit_knots=True` they
+        move through `knot_logits` instead)."""
+        return ("base_knots",)
+
+    @property
+    def knots(self) -> Float[Array, " n+p+1"]:
+        """The knots in use."""
+        frame = jax.lax.stop_gradient(self.base_knots)
+        if self.knot_logits is None:
+            return frame
+        n = self.control_points.shape[-2]
+        return _knots_from_logits(frame, self.knot_logits, self.degree, n)
 
     @property
     def parameter_range(self) -> tuple[Float[Array, ""], Float[Array, ""]]:
-        return parameter_range(self.knots, self.degree)
+        return parameter_range(self.base_knots, self.degree)
 
     def __call__(self, u: Float[ArrayLike, " N"]) -> Float[Array, "*batch N d"]:
-        knots = self.knots if self.fit_knots else jax.lax.stop_gradient(self.knots)
-        return nurbs(self.control_points, self.weights, self.degree, u, knots=knots)
+        return nurbs(self.control_points, self.weights, self.degree, u, knots=self.knots)

@@ -9,15 +9,17 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._checks import as_float, check_shape, common_float, static_int
+from .._checks import check_shape, static_int
 from .._resources import data_file
 from ..mesh import Mesh
 from ._bezier import _bernstein
 from ._common import (
     MAX_DEGREE,
     MAX_RESOLUTION,
+    _as_float,
     _check_unit_interval,
     _float_dtype,
+    _floats,
     _not_finite,
     _require,
 )
@@ -41,7 +43,7 @@ def bezier_patch(
     **Raises:** `ValueError` for bad shapes, non-finite nets or parameters outside
     `[0, 1]`.
     """
-    net = as_float(control_net, "control_net")
+    net = _as_float(control_net, "control_net")
     if net.ndim < 3:
         raise ValueError(
             f"`control_net` must have shape (..., m+1, n+1, d), got {tuple(net.shape)}"
@@ -52,7 +54,7 @@ def bezier_patch(
             f"side, got shape {tuple(net.shape)}"
         )
     net = _require(net, "`control_net` must be finite (no NaN or inf)", _not_finite)
-    net, u, v = common_float(net, u, v, names=("control_net", "u", "v"))
+    net, u, v = _floats(net, u, v, names=("control_net", "u", "v"))
     check_shape(u, "u", (None,))
     check_shape(v, "v", (None,))
     u = _check_unit_interval(u, "u")
@@ -83,7 +85,7 @@ def patch_mesh(control_nets: Float[ArrayLike, "P m+1 n+1 3"], resolution: int) -
     **Raises:** `ValueError` for a bad shape, a non-finite net or a resolution out of
     range; `TypeError` for a non-int resolution or a `None` net.
     """
-    nets = as_float(control_nets, "control_nets")
+    nets = _as_float(control_nets, "control_nets")
     if nets.ndim == 3:
         nets = nets[None]
     if nets.ndim != 4 or nets.shape[-1] != 3:
@@ -91,12 +93,21 @@ def patch_mesh(control_nets: Float[ArrayLike, "P m+1 n+1 3"], resolution: int) -
             f"`control_nets` must have shape (P, m+1, n+1, 3) or (m+1, n+1, 3), got "
             f"{tuple(jnp.shape(control_nets))}"
         )
+    nets = _require(nets, "`control_nets` must be finite (no NaN or inf)", _not_finite)
     r = static_int(resolution, "resolution", minimum=1, maximum=MAX_RESOLUTION)
+    if max(nets.shape[-3], nets.shape[-2]) > MAX_DEGREE + 1:
+        raise ValueError(
+            f"`control_nets` must have at most MAX_DEGREE + 1 = {MAX_DEGREE + 1} points per "
+            f"side, got shape {tuple(nets.shape)}"
+        )
+    return Mesh(_patch_vertices(nets, r), _grid_faces(nets.shape[0], r))
+
+
+@functools.partial(jax.jit, static_argnums=1)
+def _patch_vertices(nets: jax.Array, r: int) -> jax.Array:
+    """The `(P (r+1)^2, 3)` vertices of the patches on the `(r+1)^2` parameter grid."""
     grid = jnp.linspace(0, 1, r + 1, dtype=nets.dtype)
-    points = bezier_patch(nets, grid, grid)  # (P, r+1, r+1, 3)
-    num_patches = nets.shape[0]
-    vertices = points.reshape(num_patches * (r + 1) ** 2, 3)
-    return Mesh(vertices, _grid_faces(num_patches, r))
+    return _patch_kernel(nets, grid, grid).reshape(-1, 3)
 
 
 @functools.lru_cache(maxsize=16)
@@ -160,5 +171,6 @@ def teapot(resolution: int = 8, *, dtype=None) -> Mesh:
     **Returns:** a `gfxlab.mesh.Mesh`: vertices `(32 (r+1)^2, 3)`, int32 faces
     `(64 r^2, 3)`.
     """
-    surface = patch_mesh(teapot_patches(dtype=dtype), resolution)
-    return Mesh(surface.vertices, surface.faces[:, ::-1])
+    r = static_int(resolution, "resolution", minimum=1, maximum=MAX_RESOLUTION)
+    nets = teapot_patches(dtype=dtype)
+    return Mesh(_patch_vertices(nets, r), _grid_faces(nets.shape[0], r)[:, ::-1])
