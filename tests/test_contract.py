@@ -58,7 +58,7 @@ MODULES = (
     "transforms", "viewing", "clipping", "fit", "raster", "mesh", "curves", "brdf",
     "color", "image", "jpeg", "render", "animation", "exam", "grading",
 )  # fmt: skip
-CALL_SECONDS = 5  # CPU seconds per call
+CALL_SECONDS = 10  # CPU seconds per call (a whole fit's compile takes ~5)
 WATCHDOG_SECONDS = 120  # wall seconds per call before the interpreter is ended
 MEMORY_LIMIT = 6 * 2**30  # bytes of address space for the sweep
 HUGE = 10**12
@@ -493,6 +493,31 @@ ACCEPTED = {
     "transforms.to_homogeneous points shape",  # any dimension d -> d + 1
     "transforms.from_homogeneous points shape",  # any dimension d + 1 -> d
     "fit.fit params shape",  # any pytree of arrays is a valid start
+    # curves work in any dimension d (the "shape" case makes points 7D) and take
+    # parameters u, v, t of any shape
+    "curves.bernstein u shape",
+    "curves.bezier control_points shape",
+    "curves.bezier u shape",
+    "curves.de_casteljau control_points shape",
+    "curves.de_casteljau u shape",
+    "curves.split control_points shape",
+    "curves.elevate_degree control_points shape",
+    "curves.derivative control_points shape",
+    "curves.bspline_basis u shape",
+    "curves.bspline control_points shape",
+    "curves.bspline u shape",
+    "curves.nurbs control_points shape",
+    "curves.nurbs u shape",
+    "curves.ellipse t shape",
+    "curves.circle t shape",
+    "curves.bezier_patch control_net shape",
+    "curves.bezier_patch u shape",
+    "curves.bezier_patch v shape",
+    "curves.Bezier control_points shape",
+    "curves.BSpline control_points shape",
+    "curves.NURBS control_points shape",
+    "curves.chord_length_parameters points shape",
+    "curves.fit_bezier points shape",
 }
 # Documented drivers that run compiled steps in a Python loop: no jit sample.
 DRIVERS = {"fit.fit"}
