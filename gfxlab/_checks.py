@@ -381,7 +381,18 @@ def checked_jit(fn: Callable | None = None, **jit_kwargs) -> Callable:
     if fn is None:
         return functools.partial(checked_jit, **jit_kwargs)
     compiled = jax.jit(fn, **jit_kwargs)
+    call = _raising_check_messages(fn, compiled)
+    call.lower = compiled.lower
+    return call
 
+
+def checked_filter_jit(fn: Callable) -> Callable:
+    """`equinox.filter_jit` whose failed value checks raise `ValueError(message)`, as
+    they do eagerly (for functions of pytrees holding callables or modules)."""
+    return _raising_check_messages(fn, eqx.filter_jit(fn))
+
+
+def _raising_check_messages(fn: Callable, compiled: Callable) -> Callable:
     @functools.wraps(fn)
     def call(*args, **kwargs):
         try:
@@ -392,8 +403,25 @@ def checked_jit(fn: Callable | None = None, **jit_kwargs) -> Callable:
                 raise
             raise ValueError(message) from None
 
-    call.lower = compiled.lower
     return call
+
+
+def check_key(key, name: str = "key", *, needed: bool = True):
+    """A single `jax.random` key: a typed key (`jax.random.key`) or raw `uint32[2]` key
+    data (`jax.random.PRNGKey`); may be traced. `None` passes only where nothing random
+    is drawn (`needed=False`); anything else is a `TypeError` naming `name`."""
+    if key is None and not needed:
+        return None
+    dtype = getattr(key, "dtype", None)
+    shape = getattr(key, "shape", None)
+    typed = dtype is not None and jnp.issubdtype(dtype, jax.dtypes.prng_key)
+    raw = dtype == np.uint32 and shape == (2,)
+    if not isinstance(key, jax.Array | np.ndarray) or not (typed and shape == () or raw):
+        raise TypeError(
+            f"`{name}` must be a single jax.random key (e.g. `jax.random.key(0)`), got "
+            f"{type(key).__name__} {getattr(key, 'dtype', '')}{list(shape or [])}"
+        )
+    return key
 
 
 def safe_norm(x: jax.Array, axis: int = -1, keepdims: bool = False) -> jax.Array:

@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -15,7 +13,6 @@ from .._checks import (
     as_float,
     check_finite,
     check_last_dim,
-    check_message,
     checked_jit,
     value_error_if,
 )
@@ -178,37 +175,6 @@ def _reflect_checked(w, n):
 
 def _diffuse(kd, valid, dtype):
     return jnp.where(valid, kd / jnp.pi, 0.0).astype(dtype)
-
-
-def checked_filter_jit(fn: Callable) -> Callable:
-    """`equinox.filter_jit` whose failed value checks raise `ValueError(message)`, as
-    they do eagerly (the `filter_jit` twin of `gfxlab._checks.checked_jit`)."""
-    compiled = eqx.filter_jit(fn)
-
-    @functools.wraps(fn)
-    def call(*args, **kwargs):
-        try:
-            return compiled(*args, **kwargs)
-        except (RuntimeError, ValueError) as err:
-            message = check_message(err)
-            if message is None or message == str(err):
-                raise
-            raise ValueError(message) from None
-
-    return call
-
-
-def check_key(key, *, needed: bool = True) -> jax.Array | None:
-    """A `jax.random` key (typed, or a raw `uint32[2]` one). `None` is accepted only
-    where nothing random is drawn (`needed=False`)."""
-    if key is None and not needed:
-        return None
-    if isinstance(key, jax.Array) and (
-        (jnp.issubdtype(key.dtype, jax.dtypes.prng_key) and key.shape == ())
-        or (key.dtype == jnp.uint32 and key.shape == (2,))
-    ):
-        return key
-    raise TypeError(f"`key` must be a jax.random key (e.g. `jax.random.key(0)`), got {key!r:.60}")
 
 
 def check_brdf(brdf) -> None:

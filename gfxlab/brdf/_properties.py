@@ -13,7 +13,9 @@ from jaxtyping import Array, Float
 from .._checks import (
     as_float,
     check_finite,
+    check_key,
     check_last_dim,
+    checked_filter_jit,
     checked_jit,
     safe_normalize,
     static_int,
@@ -31,8 +33,6 @@ from ._common import (
     _reflect,
     _unit_vectors,
     check_brdf,
-    check_key,
-    checked_filter_jit,
 )
 
 

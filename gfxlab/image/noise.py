@@ -18,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from .._checks import check_last_dim, checked_jit, static_int
+from .._checks import check_key, check_last_dim, checked_jit, static_int
 from ..raster._args import array_arg, finite_arg, float_dtype, float_scalar
 
 __all__ = ["MAX_OCTAVES", "DEFAULT_KEY", "value_noise", "gradient_noise", "fractal_noise"]
@@ -51,23 +51,6 @@ def _hash(ints: jax.Array, seed) -> jax.Array:
         h = (h ^ (h >> 15)) * jnp.uint32(0x846CA68B)
         h = h ^ (h >> 16)
     return (h >> 8).astype(jnp.float32) / float(1 << 24)
-
-
-def check_key(key, name: str = "key"):
-    """A single `jax.random` key: a typed key (`jax.random.key`) or raw `uint32[2]` key
-    data (`jax.random.PRNGKey`); may be traced. `TypeError` naming `name` otherwise."""
-    if key is None:
-        raise TypeError(f"`{name}` must be a jax.random key (e.g. `jax.random.key(0)`), got None")
-    dtype = getattr(key, "dtype", None)
-    shape = getattr(key, "shape", None)
-    typed = dtype is not None and jnp.issubdtype(dtype, jax.dtypes.prng_key)
-    raw = dtype == np.uint32 and shape == (2,)
-    if not isinstance(key, jax.Array | np.ndarray) or not (typed and shape == () or raw):
-        raise TypeError(
-            f"`{name}` must be a single jax.random key (e.g. `jax.random.key(0)`), got "
-            f"{type(key).__name__} {getattr(key, 'dtype', '')}{list(shape or [])}"
-        )
-    return key
 
 
 def key_seed(key) -> jax.Array:

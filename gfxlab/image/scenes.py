@@ -7,12 +7,12 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from .._checks import checked_jit
+from .._checks import check_key, checked_jit
 from .._pixels import checked_shape
 from ..raster._args import float_dtype, float_scalar
 from .filters import _check_filter_image
 from .networks import guard_finite
-from .noise import DEFAULT_KEY, _value, check_key
+from .noise import DEFAULT_KEY, _value
 
 __all__ = ["add_salt_and_pepper", "synthetic_scene"]
 
