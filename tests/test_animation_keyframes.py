@@ -254,7 +254,7 @@ def test_tracks_vectorized_over_tracks_and_times(maybe_jit):
         position=jnp.asarray(rng.normal(size=(b, k, 3))),
         rotation=jnp.asarray(_random_quats(4, b * k).reshape(b, k, 4)),
         scale=jnp.asarray(rng.uniform(0.5, 2, (b, k, 3))),
-        colour=jnp.asarray(rng.uniform(0, 1, (b, k, 3))),
+        color=jnp.asarray(rng.uniform(0, 1, (b, k, 3))),
         method="catmull_rom",
     )
     t = jnp.linspace(0, 4, 11)

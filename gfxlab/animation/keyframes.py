@@ -3,7 +3,7 @@
 `interpolate` fills the frames between keys (`(time, value)` pairs) by step, linear,
 cubic Hermite / Catmull-Rom or Bezier-eased interpolation; `interpolate_rotations`
 does the same for quaternion keys with slerp or squad; a `Track` bundles channels
-(position, rotation, scale, colour) that share key times and evaluates any number of
+(position, rotation, scale, color) that share key times and evaluates any number of
 tracks at any number of times in one vectorized call.
 
 Easing curves are cubic Bezier timing curves as in animation tools and CSS: the curve
@@ -13,6 +13,7 @@ fraction `u` the eased fraction is `y(s)` where `x(s) = u`.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import equinox as eqx
@@ -26,22 +27,13 @@ from .._checks import (
     check_finite,
     check_last_dim,
     check_shape,
-    common_float,
+    checked_jit,
     is_traced,
     safe_divide,
     static_int,
     value_error_if,
 )
-from .quaternions import (
-    quat_conjugate,
-    quat_exp,
-    quat_log,
-    quat_multiply,
-    quat_normalize,
-    quat_to_matrix,
-    slerp,
-    squad,
-)
+from .quaternions import _conj, _exp, _log, _mul, _slerp, _squad, quat_to_matrix
 
 __all__ = [
     "EASINGS",
@@ -55,6 +47,7 @@ __all__ = [
     "Track",
     "TrackSample",
     "METHODS",
+    "MAX_EASING_ITERATIONS",
 ]
 
 #: Interpolation methods of `interpolate`.
@@ -69,6 +62,19 @@ EASINGS = {
     "ease_in_out": (0.42, 0.0, 0.58, 1.0),
 }
 
+#: The most Newton/bisection steps `cubic_bezier_easing` takes (64 bisections already
+#: reach the float64 resolution of `[0, 1]`).
+MAX_EASING_ITERATIONS = 64
+
+# Public functions check shapes and static arguments in Python and run one compiled
+# kernel (`checked_jit`) that checks values (NaN/inf, unsorted keys) and computes; the
+# kernels share the unchecked math (`_interp`, `_rotations`, `_ease`).
+
+
+def _promote(*arrays):
+    dtype = jnp.result_type(*[a for a in arrays if a is not None])
+    return [None if a is None else a.astype(dtype) for a in arrays]
+
 
 def _bezier_1d(s, a, b):
     # Cubic Bezier with control values 0, a, b, 1, and its derivative (the degree-2
@@ -77,6 +83,29 @@ def _bezier_1d(s, a, b):
     value = cubic[..., 1] * a + cubic[..., 2] * b + cubic[..., 3]
     slope = 3 * (quadratic[..., 0] * a + quadratic[..., 1] * (b - a) + quadratic[..., 2] * (1 - b))
     return value, slope
+
+
+def _control(control, name: str):
+    """Static checks of an easing: a name from `EASINGS` or `(..., 4)` numbers."""
+    if isinstance(control, str):
+        if control not in EASINGS:
+            raise ValueError(
+                f"`{name}` must be one of {sorted(EASINGS)} or (x1, y1, x2, y2), got {control!r}"
+            )
+        control = EASINGS[control]
+    control = as_float(control, name)
+    check_shape(control, name, (..., 4))
+    return control
+
+
+def _check_control(control, name: str):
+    """Traced checks of an easing: finite, with `x1, x2` in `[0, 1]`."""
+    control = check_finite(control, name)
+    x1, x2 = control[..., 0], control[..., 2]
+    bad = (x1 < 0) | (x1 > 1) | (x2 < 0) | (x2 > 1)
+    return value_error_if(
+        control, bad, f"`{name}` x1 and x2 must lie in [0, 1] (time must not run backwards)"
+    )
 
 
 def cubic_bezier_easing(
@@ -94,32 +123,28 @@ def cubic_bezier_easing(
 
     **Arguments:**
 
-    - `u`: time fractions, clipped to `[0, 1]`.
+    - `u`: finite time fractions, clipped to `[0, 1]`.
     - `control`: `(x1, y1, x2, y2)` (broadcast against `u`) with `x1, x2` in `[0, 1]`
       so that time runs forwards, or a name from `EASINGS`.
-    - `iterations`: Newton/bisection steps (static).
+    - `iterations`: Newton/bisection steps (static, `1..MAX_EASING_ITERATIONS`).
 
     **Returns:** the eased fractions, same shape as `u`.
     """
-    if isinstance(control, str):
-        if control not in EASINGS:
-            raise ValueError(
-                f"`control` must be one of {sorted(EASINGS)} or (x1, y1, x2, y2), got {control!r}"
-            )
-        control = EASINGS[control]
-    u, control = common_float(u, control, names=("u", "control"))
-    check_shape(control, "control", (..., 4))
-    x1, y1, x2, y2 = jnp.moveaxis(control, -1, 0)
-    bad = (x1 < 0) | (x1 > 1) | (x2 < 0) | (x2 > 1)
-    x1 = value_error_if(
-        x1, bad, "`control` x1 and x2 must lie in [0, 1] (time must not run backwards)"
-    )
-    iterations = static_int(iterations, "iterations", minimum=1)
-    return _ease_kernel(u, x1, y1, x2, y2, iterations=iterations)
+    control = _control(control, "control")
+    u = as_float(u, "u")
+    iterations = static_int(iterations, "iterations", minimum=1, maximum=MAX_EASING_ITERATIONS)
+    return _easing_kernel(u, control, iterations=iterations)
 
 
-@functools.partial(jax.jit, static_argnames=("iterations",))
-def _ease_kernel(u, x1, y1, x2, y2, *, iterations):
+@functools.partial(checked_jit, static_argnames=("iterations",))
+def _easing_kernel(u, control, *, iterations):
+    u, control = _promote(u, control)
+    u = check_finite(u, "u")
+    x1, y1, x2, y2 = jnp.moveaxis(_check_control(control, "control"), -1, 0)
+    return _ease(u, x1, y1, x2, y2, iterations=iterations)
+
+
+def _ease(u, x1, y1, x2, y2, *, iterations):
     u = jnp.clip(u, 0.0, 1.0)
     sx1, sx2, su = (jax.lax.stop_gradient(a) for a in (x1, x2, u))
     shape = jnp.broadcast_shapes(u.shape, x1.shape)
@@ -160,21 +185,35 @@ def ease_in_out(u: Float[Array, "*batch"]) -> Float[Array, "*batch"]:
 
 
 def _check_keys(times, values, name="values"):
+    """Static checks of key times `(K,)` and key values `(K, ...)`."""
     times = as_float(times, "times")
     if times.ndim != 1 or times.shape[0] < 1:
         raise ValueError(f"`times` must be a 1D array of key times (K,), got shape {times.shape}")
     values = as_float(values, name)
     if values.ndim < 1 or values.shape[0] != times.shape[0]:
         raise ValueError(
-            f"`{name}` must have one row per key time: shape ({times.shape[0]}, ...), "
-            f"got {values.shape}"
+            f"`{name}` must have one row per key time: `times` has shape {times.shape}, so "
+            f"`{name}` must be ({times.shape[0]}, ...), got {values.shape}"
         )
+    return times, values
+
+
+def _key_values(times, values, name: str):
+    """Traced checks of keys: finite, strictly increasing times."""
+    times = check_finite(times, "times")
     times = value_error_if(
         times,
-        jnp.any(jnp.diff(times) <= 0),
+        jnp.diff(times) <= 0,
         "`times` must be strictly increasing (sorted key times without duplicates)",
     )
-    return times, values
+    return times, check_finite(values, name)
+
+
+def _scalar(x, name: str):
+    x = as_float(x, name)
+    if x.ndim != 0:
+        raise ValueError(f"`{name}` must be a number, got shape {x.shape}")
+    return x
 
 
 def _segment(times, t):
@@ -195,15 +234,22 @@ def catmull_rom_tangents(
 
     Interior keys get `(1 - tension) (p[i+1] - p[i-1]) / (t[i+1] - t[i-1])` (Catmull-Rom
     for `tension = 0`, works for uneven key spacing); end keys get one-sided differences.
+    A single key has zero tangents.
     """
     times, values = _check_keys(times, values)
+    return _tangents_kernel(times, values, _scalar(tension, "tension"))
+
+
+@checked_jit
+def _tangents_kernel(times, values, tension):
+    times, values, tension = _promote(times, values, tension)
+    times, values = _key_values(times, values, "values")
+    tension = check_finite(tension, "tension")
     if times.shape[0] < 2:
         return jnp.zeros_like(values)
-    times, values = common_float(times, values, names=("times", "values"))
-    return _cardinal_tangents(times, values, jnp.asarray(tension, values.dtype))
+    return _cardinal_tangents(times, values, tension)
 
 
-@jax.jit
 def _cardinal_tangents(times, values, tension):
     expand = (slice(None),) + (None,) * (values.ndim - 1)
     dp = jnp.concatenate(
@@ -245,55 +291,52 @@ def interpolate(
     - `easing`: for `"bezier"`: a name from `EASINGS`, `(x1, y1, x2, y2)`, or one
       easing per segment `(K-1, 4)`.
 
+    Every argument is checked whatever the method (NaN/inf and unsorted keys raise
+    `ValueError` naming the argument). Called eagerly it is one compiled call.
+
     **Returns:** `(*t.shape, *values.shape[1:])`.
     """
-    if method not in METHODS:
+    if not isinstance(method, str) or method not in METHODS:
         raise ValueError(f"`method` must be one of {METHODS}, got {method!r}")
     times, values = _check_keys(times, values)
-    times, values, t = common_float(times, values, t, names=("times", "values", "t"))
+    t = as_float(t, "t")
     k = times.shape[0]
-    control = m = None
-    if method == "bezier":
-        control = easing
-        if isinstance(control, str):
-            if control not in EASINGS:
-                raise ValueError(
-                    f"`easing` must be one of {sorted(EASINGS)} or (x1, y1, x2, "
-                    f"y2), got {control!r}"
-                )
-            control = EASINGS[control]
-        control = as_float(control, "easing").astype(values.dtype)
-        check_shape(control, "easing", (..., 4))
-        if control.ndim == 2 and control.shape[0] != k - 1:
+    control = _control(easing, "easing")
+    if control.ndim == 2 and control.shape[0] != k - 1:
+        raise ValueError(f"`easing` per segment must have shape ({k - 1}, 4), got {control.shape}")
+    if control.ndim > 2:
+        raise ValueError(f"`easing` must be (4,) or ({k - 1}, 4), got {control.shape}")
+    if method == "hermite" and tangents is None:
+        raise ValueError('`tangents` (K, ...) are required for method="hermite"')
+    if tangents is not None:
+        tangents = as_float(tangents, "tangents")
+        if tangents.shape != values.shape:
             raise ValueError(
-                f"`easing` per segment must have shape ({k - 1}, 4), got {control.shape}"
+                f"`tangents` must have the shape of `values` {values.shape}, got {tangents.shape}"
             )
-        if control.ndim > 2:
-            raise ValueError(f"`easing` must be (4,) or ({k - 1}, 4), got {control.shape}")
-        bad = (
-            (control[..., 0] < 0)
-            | (control[..., 0] > 1)
-            | (control[..., 2] < 0)
-            | (control[..., 2] > 1)
-        )
-        control = value_error_if(
-            control, bad, "`easing` x1 and x2 must lie in [0, 1] (time must not run backwards)"
-        )
-    elif method == "catmull_rom" and k > 1:
-        m = _cardinal_tangents(times, values, jnp.asarray(tension, values.dtype))
-    elif method == "hermite":
-        if tangents is None:
-            raise ValueError('`tangents` (K, ...) are required for method="hermite"')
-        m = as_float(tangents, "tangents").astype(values.dtype)
-        if m.shape != values.shape:
-            raise ValueError(
-                f"`tangents` must have the shape of `values` {values.shape}, got {m.shape}"
-            )
-    return _interpolate_kernel(times, values, t, m, control, method=method)
+    tension = _scalar(tension, "tension")
+    return _interpolate_kernel(times, values, t, tangents, control, tension, method=method)
 
 
-@functools.partial(jax.jit, static_argnames=("method",))
-def _interpolate_kernel(times, values, t, m, control, *, method):
+@functools.partial(checked_jit, static_argnames=("method",))
+def _interpolate_kernel(times, values, t, tangents, control, tension, *, method):
+    times, values, t, tangents, control, tension = _promote(
+        times, values, t, tangents, control, tension
+    )
+    times, values = _key_values(times, values, "values")
+    t = check_finite(t, "t")
+    tension = check_finite(tension, "tension")
+    control = _check_control(control, "easing")
+    m = None
+    if tangents is not None:
+        m = check_finite(tangents, "tangents")
+    if method == "catmull_rom" and times.shape[0] > 1:
+        m = _cardinal_tangents(times, values, tension)
+    return _interp(times, values, t, m, control, method=method)
+
+
+def _interp(times, values, t, m, control, *, method):
+    """The unchecked interpolation (keys already validated)."""
     k = times.shape[0]
     i, u = _segment(times, t)
     ch = (None,) * (values.ndim - 1)
@@ -308,7 +351,7 @@ def _interpolate_kernel(times, values, t, m, control, *, method):
         if control.ndim == 2:
             control = control[i]
         x1, y1, x2, y2 = jnp.moveaxis(control, -1, 0)
-        eased = _ease_kernel(u, x1, y1, x2, y2, iterations=24)[(...,) + ch]
+        eased = _ease(u, x1, y1, x2, y2, iterations=24)[(...,) + ch]
         return p0 + eased * (p1 - p0)
     h = (times[jnp.minimum(i + 1, k - 1)] - times[i])[(...,) + ch]
     m0, m1 = m[i], m[jnp.minimum(i + 1, k - 1)]
@@ -329,6 +372,9 @@ def _align_signs(quats):
     return quats * signs[:, None]
 
 
+_ROTATION_METHODS = ("step", "slerp", "squad")
+
+
 def interpolate_rotations(
     times: Float[Array, " K"],
     quats: Float[Array, "K 4"],
@@ -341,34 +387,43 @@ def interpolate_rotations(
     **Arguments:**
 
     - `times`: `(K,)` strictly increasing key times.
-    - `quats`: `(K, 4)` key rotations `(w, x, y, z)` (normalised here; signs aligned so
-      each segment takes the shorter arc).
+    - `quats`: `(K, 4)` key rotations `(w, x, y, z)`, non-zero (normalised here; signs
+      aligned so each segment takes the shorter arc).
     - `t`: query times, any shape (clamped to the key range).
     - `method`: `"step"`, `"slerp"` (piecewise great arcs, constant angular speed) or
       `"squad"` (C1 in time through the keys, also for uneven key spacing).
 
     **Returns:** `(*t.shape, 4)` unit quaternions.
     """
-    if method not in ("step", "slerp", "squad"):
+    if not isinstance(method, str) or method not in _ROTATION_METHODS:
         raise ValueError(f"`method` must be 'step', 'slerp' or 'squad', got {method!r}")
     times, quats = _check_keys(times, quats, "quats")
     check_shape(quats, "quats", (None, 4))
-    times, quats, t = common_float(times, quats, t, names=("times", "quats", "t"))
-    return _rotations_kernel(times, quat_normalize(quats), t, method=method)
+    return _rotations_kernel(times, quats, as_float(t, "t"), method=method)
 
 
-@functools.partial(jax.jit, static_argnames=("method",))
+@functools.partial(checked_jit, static_argnames=("method",))
 def _rotations_kernel(times, quats, t, *, method):
-    q = _align_signs(quats)
+    times, quats, t = _promote(times, quats, t)
+    times, quats = _key_values(times, quats, "quats")
+    quats = value_error_if(
+        quats, jnp.sum(quats * quats, axis=-1) == 0, "`quats` must be non-zero quaternions"
+    )
+    return _rotations(times, quats, check_finite(t, "t"), method=method)
+
+
+def _rotations(times, quats, t, *, method):
+    """The unchecked rotation interpolation (keys already validated)."""
+    q = _align_signs(quats / jnp.linalg.norm(quats, axis=-1, keepdims=True))
     k = times.shape[0]
     if method == "step" or k == 1:
-        return _interpolate_kernel(times, q, t, None, None, method="step")
+        return _interp(times, q, t, None, None, method="step")
     i, u = _segment(times, t)
     q0, q1 = q[i], q[i + 1]
     if method == "slerp":
-        return slerp(q0, q1, u, shortest=False)
+        return _slerp(q0, q1, u, shortest=False)
     s_in, s_out = _squad_inners(times, q)
-    return squad(q0, s_out[i], s_in[i + 1], q1, u)
+    return _squad(q0, s_out[i], s_in[i + 1], q1, u)
 
 
 def _squad_inners(times, q):
@@ -384,43 +439,50 @@ def _squad_inners(times, q):
     h = jnp.diff(times)
     h_prev = jnp.concatenate([h[:1], h])
     h_next = jnp.concatenate([h, h[-1:]])
-    inv = quat_conjugate(q)
-    l_next = quat_log(quat_multiply(inv, padded[2:]))
-    l_prev = quat_log(quat_multiply(inv, padded[:-2]))
+    inv = _conj(q)
+    l_next = _log(_mul(inv, padded[2:]))
+    l_prev = _log(_mul(inv, padded[:-2]))
     v = (l_next - l_prev) / (h_prev + h_next)[:, None]
-    s_out = quat_multiply(q, quat_exp((v * h_next[:, None] - l_next) / 2))
-    s_in = quat_multiply(q, quat_exp(-(v * h_prev[:, None] + l_prev) / 2))
+    s_out = _mul(q, _exp((v * h_next[:, None] - l_next) / 2))
+    s_in = _mul(q, _exp(-(v * h_prev[:, None] + l_prev) / 2))
     return s_in, s_out
+
+
+_CHANNELS = ("position", "rotation", "scale", "color")
 
 
 class TrackSample(eqx.Module):
     """The channels of one or more tracks at some times; absent channels are `None`."""
 
-    position: Float[Array, "*batch T d"] | None
-    rotation: Float[Array, "*batch T 4"] | None
-    scale: Float[Array, "*batch T d"] | None
-    colour: Float[Array, "*batch T c"] | None
+    position: Float[Array, "*batch T d"] | None = None
+    rotation: Float[Array, "*batch T 4"] | None = None
+    scale: Float[Array, "*batch T d"] | None = None
+    color: Float[Array, "*batch T c"] | None = None
 
     def matrix(self) -> Float[Array, "*batch T 4 4"]:
         """The 3D transforms `T(position) R(rotation) S(scale)` (scale first), 4x4."""
         present = [c for c in (self.position, self.rotation, self.scale) if c is not None]
         if not present:
             raise ValueError("the sample has no position, rotation or scale channel")
-        batch = present[0].shape[:-1]
-        dtype = present[0].dtype
-        linear = jnp.broadcast_to(jnp.eye(3, dtype=dtype), batch + (3, 3))
         if self.scale is not None:
             check_shape(self.scale, "scale", (..., 3))
-            linear = linear * self.scale[..., None, :]
-        if self.rotation is not None:
-            linear = quat_to_matrix(self.rotation) @ linear
-        offset = jnp.zeros(batch + (3,), dtype)
         if self.position is not None:
             check_shape(self.position, "position", (..., 3))
-            offset = self.position
-        top = jnp.concatenate([linear, offset[..., None]], axis=-1)
-        bottom = jnp.broadcast_to(jnp.array([0.0, 0.0, 0.0, 1.0], dtype), batch + (1, 4))
-        return jnp.concatenate([top, bottom], axis=-2)
+        return _sample_matrix(self.position, self.rotation, self.scale, present[0])
+
+
+@jax.jit
+def _sample_matrix(position, rotation, scale, first):
+    batch, dtype = first.shape[:-1], first.dtype
+    linear = jnp.broadcast_to(jnp.eye(3, dtype=dtype), batch + (3, 3))
+    if scale is not None:
+        linear = linear * scale[..., None, :]
+    if rotation is not None:
+        linear = quat_to_matrix(rotation) @ linear
+    offset = jnp.zeros(batch + (3,), dtype) if position is None else position
+    top = jnp.concatenate([linear, offset[..., None]], axis=-1)
+    bottom = jnp.broadcast_to(jnp.array([0.0, 0.0, 0.0, 1.0], dtype), batch + (1, 4))
+    return jnp.concatenate([top, bottom], axis=-2)
 
 
 def _field_converter(name: str):
@@ -440,7 +502,7 @@ def _check_track_values(track) -> None:
     times = track.times
     if times.ndim < 1:
         raise ValueError(f"`times` must be (*B, K) key times, got shape {times.shape}")
-    for name in ("position", "rotation", "scale", "colour"):
+    for name in _CHANNELS:
         values = getattr(track, name)
         if values is None:
             continue
@@ -453,6 +515,12 @@ def _check_track_values(track) -> None:
             check_finite(values, name)
     if track.rotation is not None:
         check_last_dim(track.rotation, "rotation", (4,), "quaternion keys (w, x, y, z)")
+        if not is_traced(track.rotation):
+            value_error_if(
+                track.rotation,
+                jnp.all(track.rotation == 0, axis=-1),
+                "`rotation` keys must be non-zero quaternions",
+            )
     if not is_traced(times):
         check_finite(times, "times")
         if times.shape[-1] > 1:
@@ -464,19 +532,21 @@ def _check_track_values(track) -> None:
 
 
 class Track(eqx.Module):
-    """Key-framed channels sharing key times: position, rotation, scale and colour.
+    """Key-framed channels sharing key times: position, rotation, scale and color.
 
     Fields may carry leading batch dimensions (the same for every field), one track per
     batch entry: `Track(times (B, K), position (B, K, 3), ...)` holds `B` tracks, and
-    calling it evaluates all of them at all times in one vectorized call.
+    calling it evaluates all of them at all times in one vectorized, compiled call.
 
     **Fields:**
 
     - `times`: `(*B, K)` key times, strictly increasing per track.
-    - `position`, `scale`, `colour`: `(*B, K, c)` or `None`.
+    - `position`, `scale`, `color`: `(*B, K, c)` or `None`.
     - `rotation`: `(*B, K, 4)` quaternion keys or `None`.
-    - `method`: interpolation of position/scale/colour (see `interpolate`).
+    - `method`: interpolation of position/scale/color (see `interpolate`).
     - `rotation_method`: `"step"`, `"slerp"` or `"squad"`.
+
+    The fields are checked at construction (`TypeError`/`ValueError` naming the field).
     """
 
     times: Float[Array, "*B K"] = eqx.field(converter=_field_converter("times"))
@@ -489,42 +559,50 @@ class Track(eqx.Module):
     scale: Float[Array, "*B K d"] | None = eqx.field(
         default=None, converter=_field_converter("scale")
     )
-    colour: Float[Array, "*B K c"] | None = eqx.field(
-        default=None, converter=_field_converter("colour")
+    color: Float[Array, "*B K c"] | None = eqx.field(
+        default=None, converter=_field_converter("color")
     )
     method: str = eqx.field(default="linear", static=True)
     rotation_method: str = eqx.field(default="slerp", static=True)
 
     def __check_init__(self):
         _check_track_values(self)
-        if self.method not in METHODS or self.method == "hermite":
+        if not isinstance(self.method, str) or self.method not in METHODS[:3] + METHODS[4:]:
             raise ValueError(
                 f"`method` of a Track must be one of "
                 f"{tuple(m for m in METHODS if m != 'hermite')}, got {self.method!r}"
             )
-        if self.rotation_method not in ("step", "slerp", "squad"):
+        if (
+            not isinstance(self.rotation_method, str)
+            or self.rotation_method not in _ROTATION_METHODS
+        ):
             raise ValueError(
                 "`rotation_method` must be 'step', 'slerp' or 'squad', got "
                 f"{self.rotation_method!r}"
             )
-        if all(c is None for c in (self.position, self.rotation, self.scale, self.colour)):
+        if all(getattr(self, c) is None for c in _CHANNELS):
             raise ValueError(
-                "a Track needs at least one channel (position, rotation, scale or colour)"
+                "a Track needs at least one channel (position, rotation, scale or color)"
             )
 
     def _single(self, t):
+        control = None
+        if self.method == "bezier":
+            control = jnp.asarray(EASINGS["ease_in_out"], t.dtype)
+
         def channel(values):
-            return (
-                None if values is None else interpolate(self.times, values, t, method=self.method)
-            )
+            if values is None:
+                return None
+            m = None
+            if self.method == "catmull_rom" and self.times.shape[-1] > 1:
+                m = _cardinal_tangents(self.times, values, jnp.zeros((), values.dtype))
+            return _interp(self.times, values, t, m, control, method=self.method)
 
         rotation = None
         if self.rotation is not None:
-            rotation = interpolate_rotations(
-                self.times, self.rotation, t, method=self.rotation_method
-            )
+            rotation = _rotations(self.times, self.rotation, t, method=self.rotation_method)
         return TrackSample(
-            channel(self.position), rotation, channel(self.scale), channel(self.colour)
+            channel(self.position), rotation, channel(self.scale), channel(self.color)
         )
 
     def __call__(self, t: Float[Array, " T"]) -> TrackSample:
@@ -532,11 +610,22 @@ class Track(eqx.Module):
 
         **Returns:** a `TrackSample` with channels `(*B, T, c)`.
         """
-        times = as_float(self.times, "times")
-        if times.ndim < 1:
-            raise ValueError(f"`times` must be (*B, K), got shape {times.shape}")
-        t = as_float(t, "t")
-        fn = lambda track: track._single(t)
-        for _ in range(times.ndim - 1):
-            fn = jax.vmap(fn)
-        return fn(self)
+        return _track_kernel(self, as_float(t, "t"))
+
+
+@checked_jit
+def _track_kernel(track, t):
+    # Checked at construction already, unless the track was built from traced values.
+    times = check_finite(track.times, "times")
+    times = value_error_if(
+        times, jnp.diff(times, axis=-1) <= 0, "`times` must be strictly increasing key times"
+    )
+    changes = {
+        c: check_finite(getattr(track, c), c) for c in _CHANNELS if getattr(track, c) is not None
+    }
+    track = dataclasses.replace(track, times=times, **changes)
+    t = check_finite(t, "t").astype(times.dtype)
+    fn = lambda tr: tr._single(t)  # noqa: E731
+    for _ in range(track.times.ndim - 1):
+        fn = jax.vmap(fn)
+    return fn(track)
