@@ -154,7 +154,7 @@ BASELINES |= {
         "weights": [[0.25] * 4] * 4,
         "bone_transforms": _EYE3 * 4,
     },
-    "animation.skinning_matrices": _Built(skeleton=_CHAIN, pose=_EYE3 * 3),
+    "animation.skinning_matrices": _Built(skeleton=_CHAIN),
     "animation.bezier_path": {"control_points": [[0.0, 0.0], [1.0, 1.0], [2.0, 0.0]]},
     "animation.curve_deform": _Built(
         path=_Made(lambda: _gfx("animation").bezier_path([[0.0, 0.0], [1.0, 1.0], [2.0, 0.0]])),

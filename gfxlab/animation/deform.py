@@ -77,7 +77,8 @@ def skin(
     n = vertices.shape[-2]
     if weights.ndim != 2 or weights.shape[0] != n:
         raise ValueError(
-            f"`weights` must have shape ({n}, B) (one row per vertex), got {weights.shape}"
+            f"`weights` must have shape ({n}, B) (one row per vertex of `vertices` "
+            f"{vertices.shape}), got {weights.shape}"
         )
     b = weights.shape[1]
     if bone_transforms.shape[-3:] != (b, d + 1, d + 1):
@@ -259,6 +260,8 @@ def curve_deform(
     vertices = as_float(vertices, "vertices")
     d = check_last_dim(vertices, "vertices", (2, 3), "2D or 3D points")
     check_shape(vertices, "vertices", (None, d))
+    if vertices.shape[0] == 0:
+        raise ValueError("`vertices` must hold at least one vertex, got shape (0, d)")
     vertices = check_finite(vertices, "vertices")
     samples = static_int(samples, "samples", minimum=2, maximum=MAX_PATH_SAMPLES)
     if not callable(path):

@@ -112,7 +112,11 @@ class Particles(eqx.Module):
     def __check_init__(self):
         check_last_dim(self.position, "position", (2, 3), "2D or 3D points")
         check_shape(self.position, "position", (None, self.position.shape[-1]))
-        check_shape(self.velocity, "velocity", self.position.shape)
+        if self.velocity.shape != self.position.shape:
+            raise ValueError(
+                f"`velocity` must have the shape of `position` {self.position.shape}, "
+                f"got {self.velocity.shape}"
+            )
         check_shape(self.birth, "birth", self.position.shape[:1])
         for name in ("position", "velocity", "birth"):
             value = getattr(self, name)
@@ -399,7 +403,10 @@ def simulate_springs(
     steps = static_int(steps, "steps", minimum=1, maximum=MAX_STEPS)
     position, velocity = common_float(position, velocity, names=("position", "velocity"))
     n, d = position.shape[0], check_last_dim(position, "position", (1, 2, 3))
-    check_shape(velocity, "velocity", position.shape)
+    if velocity.shape != position.shape:
+        raise ValueError(
+            f"`velocity` must have the shape of `position` {position.shape}, got {velocity.shape}"
+        )
     _check_output_size(steps, position.shape)
     position, velocity = check_finite(position, "position"), check_finite(velocity, "velocity")
     springs = _spring_pairs(springs, n)
@@ -426,7 +433,12 @@ def simulate_springs(
 def _spring_pairs(springs, n: int) -> jax.Array:
     if springs is None:
         raise TypeError("`springs` must be integer pairs (E, 2), got None")
-    springs = jnp.asarray(springs)
+    if isinstance(springs, str | bytes):
+        raise TypeError(f"`springs` must be integer pairs (E, 2), got {springs!r:.40}")
+    try:
+        springs = jnp.asarray(springs)
+    except (TypeError, ValueError) as err:
+        raise TypeError(f"`springs` must be integer pairs (E, 2) ({err})") from None
     if springs.ndim != 2 or springs.shape[1] != 2 or not jnp.issubdtype(springs.dtype, jnp.integer):
         raise ValueError(
             f"`springs` must be integer pairs (E, 2), got {springs.shape} {springs.dtype}"

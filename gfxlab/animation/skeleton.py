@@ -370,7 +370,10 @@ class IKResult(_IKFields):
         angles, effector = as_float(angles, "angles"), as_float(effector, "effector")
         expected = globals.shape[:-2] + (() if n == 3 else (3,))
         if angles.shape != expected:
-            raise ValueError(f"`angles` must have shape {expected}, got {angles.shape}")
+            raise ValueError(
+                f"`angles` must have shape {expected} (one per joint of `globals` "
+                f"{globals.shape}), got {angles.shape}"
+            )
         if effector.shape != globals.shape[:-3] + (n - 1,):
             raise ValueError(
                 f"`effector` must have shape {globals.shape[:-3] + (n - 1,)}, got {effector.shape}"

@@ -275,10 +275,10 @@ def face_normals(vertices: Float[Array, "V 3"], faces: Int[Array, "F 3"]) -> Flo
     """
     vertices = as_float(vertices, "vertices")
     check_shape(vertices, "vertices", (None, 3))
-    return _face_normals_kernel(vertices, _static_faces(faces))
+    return _face_normals_kernel(vertices, _static_faces(faces, vertices))
 
 
-def _static_faces(faces):
+def _static_faces(faces, vertices):
     """The static part of `check_faces` (type and shape); the range is checked traced."""
     if faces is None or isinstance(faces, str | bytes):
         raise TypeError(f"`faces` must be an (F, 3) array of vertex indices, got {faces!r:.40}")
@@ -286,6 +286,8 @@ def _static_faces(faces):
     if not jnp.issubdtype(faces.dtype, jnp.integer):
         raise TypeError(f"`faces` must hold integer vertex indices, got dtype {faces.dtype}")
     check_shape(faces, "faces", (None, 3))
+    if vertices.shape[0] == 0 and faces.shape[0] > 0:
+        raise ValueError(f"`vertices` is empty, but `faces` {faces.shape} index vertices")
     return faces
 
 
@@ -314,7 +316,7 @@ def vertex_normals(vertices: Float[Array, "V 3"], faces: Int[Array, "F 3"]) -> F
     """
     vertices = as_float(vertices, "vertices")
     check_shape(vertices, "vertices", (None, 3))
-    return _vertex_normals_kernel(vertices, _static_faces(faces))
+    return _vertex_normals_kernel(vertices, _static_faces(faces, vertices))
 
 
 @checked_jit
