@@ -33,6 +33,7 @@ from .._checks import (
     static_int,
     value_error_if,
 )
+from .quaternions import _number
 from .skeleton import Skeleton, _check_pose, _fk
 
 __all__ = [
@@ -86,8 +87,7 @@ def skin(
             f"`bone_transforms` must have shape (..., {b}, {d + 1}, {d + 1}): one matrix per "
             f"column of `weights` {weights.shape} for {d}D `vertices`, got {bone_transforms.shape}"
         )
-    atol = as_float(atol, "atol")
-    check_shape(atol, "atol", ())
+    atol = _number(atol, "atol")
     return _skin_kernel(vertices, weights, bone_transforms, atol)
 
 
@@ -97,7 +97,7 @@ def _skin_kernel(vertices, weights, bone_transforms, atol):
     vertices = check_finite(vertices.astype(dtype), "vertices")
     weights = check_finite(weights.astype(dtype), "weights")
     bone_transforms = check_finite(bone_transforms.astype(dtype), "bone_transforms")
-    atol = check_range(check_finite(atol, "atol"), "atol", minimum=0)
+    atol = check_range(check_finite(atol.astype(dtype), "atol"), "atol", minimum=0)
     bad = (jnp.abs(jnp.sum(weights, axis=-1) - 1) > atol) | jnp.any(weights < 0, axis=-1)
     weights = value_error_if(
         weights, bad, "`weights` rows must be non-negative and sum to 1 (within `atol`)"
@@ -181,9 +181,7 @@ def bone_weights(
     d = check_last_dim(vertices, "vertices", (2, 3), "2D or 3D points")
     check_shape(vertices, "vertices", (None, d))
     check_shape(segments, "segments", (None, 2, d))
-    falloff, power = as_float(falloff, "falloff"), as_float(power, "power")
-    check_shape(falloff, "falloff", ())
-    check_shape(power, "power", ())
+    falloff, power = _number(falloff, "falloff"), _number(power, "power")
     return _weights_kernel(vertices, segments, falloff, power)
 
 

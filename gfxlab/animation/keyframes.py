@@ -17,6 +17,7 @@ import functools
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 from .. import curves
@@ -29,7 +30,7 @@ from .._checks import (
     static_int,
     value_error_if,
 )
-from .quaternions import _conj, _exp, _log, _mul, _slerp, _squad
+from .quaternions import _conj, _exp, _log, _mul, _number, _slerp, _squad
 
 __all__ = [
     "EASINGS",
@@ -57,6 +58,9 @@ EASINGS = {
     "ease_out": (0.0, 0.0, 0.58, 1.0),
     "ease_in_out": (0.42, 0.0, 0.58, 1.0),
 }
+
+# The named easings as host arrays (passed to the compiled kernels without conversion).
+_EASING_ARRAYS = {name: np.asarray(value) for name, value in EASINGS.items()}
 
 #: The most Newton/bisection steps `cubic_bezier_easing` takes (64 bisections already
 #: reach the float64 resolution of `[0, 1]`).
@@ -88,7 +92,7 @@ def _control(control, name: str):
             raise ValueError(
                 f"`{name}` must be one of {sorted(EASINGS)} or (x1, y1, x2, y2), got {control!r}"
             )
-        control = EASINGS[control]
+        return _EASING_ARRAYS[control]
     control = as_float(control, name)
     check_shape(control, name, (..., 4))
     return control
@@ -134,7 +138,7 @@ def cubic_bezier_easing(
 
 @functools.partial(checked_jit, static_argnames=("iterations",))
 def _easing_kernel(u, control, *, iterations):
-    u, control = _promote(u, control)
+    control = control.astype(u.dtype)
     u = check_finite(u, "u")
     x1, y1, x2, y2 = jnp.moveaxis(_check_control(control, "control"), -1, 0)
     return _ease(u, x1, y1, x2, y2, iterations=iterations)
@@ -205,11 +209,7 @@ def _key_values(times, values, name: str):
     return times, check_finite(values, name)
 
 
-def _scalar(x, name: str):
-    x = as_float(x, name)
-    if x.ndim != 0:
-        raise ValueError(f"`{name}` must be a number, got shape {x.shape}")
-    return x
+_scalar = _number
 
 
 def _segment(times, t):
@@ -238,7 +238,8 @@ def catmull_rom_tangents(
 
 @checked_jit
 def _tangents_kernel(times, values, tension):
-    times, values, tension = _promote(times, values, tension)
+    times, values = _promote(times, values)
+    tension = tension.astype(values.dtype)
     times, values = _key_values(times, values, "values")
     tension = check_finite(tension, "tension")
     if times.shape[0] < 2:
@@ -316,9 +317,8 @@ def interpolate(
 
 @functools.partial(checked_jit, static_argnames=("method",))
 def _interpolate_kernel(times, values, t, tangents, control, tension, *, method):
-    times, values, t, tangents, control, tension = _promote(
-        times, values, t, tangents, control, tension
-    )
+    times, values, t, tangents = _promote(times, values, t, tangents)
+    control, tension = control.astype(values.dtype), tension.astype(values.dtype)
     times, values = _key_values(times, values, "values")
     t = check_finite(t, "t")
     # Checks of arguments the method may not use ride on `values` (always used), so

@@ -32,6 +32,7 @@ from .._checks import (
 
 # Noise has one owner, gfxlab.image; procedural motion re-exports it.
 from ..image import fractal_noise, gradient_noise, value_noise
+from .quaternions import _number  # noqa: E402
 
 __all__ = [
     "Particles",
@@ -164,9 +165,7 @@ def emit(
 
 
 def _scalar_arg(value, name: str):
-    x = as_float(value, name)
-    check_shape(x, name, ())
-    return x
+    return _number(value, name)
 
 
 @functools.partial(checked_jit, static_argnames=("count",))

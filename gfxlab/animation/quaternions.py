@@ -10,6 +10,7 @@ from __future__ import annotations
 import functools
 
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 from .._checks import (
@@ -50,6 +51,20 @@ Quat = Float[Array, "*batch 4"]
 def _vectors(x, name: str, size: int, what: str):
     x = as_float(x, name)
     check_last_dim(x, name, (size,), what)
+    return x
+
+
+def _number(x, name: str):
+    """A scalar argument: a Python number stays on the host as a NumPy scalar array (no
+    device transfer before the compiled call); anything else goes through `as_float`."""
+    if isinstance(x, int | float) and not isinstance(x, bool):
+        try:
+            return np.asarray(float(x))
+        except OverflowError:
+            raise ValueError(f"`{name}` is too large for a float, got {x!r:.40}") from None
+    x = as_float(x, name)
+    if x.ndim != 0:
+        raise ValueError(f"`{name}` must be a number, got shape {x.shape}")
     return x
 
 

@@ -297,9 +297,15 @@ def joint_positions(
     skeleton: Skeleton, pose: Float[Array, "*batch J n n"] | None = None
 ) -> Float[Array, "*batch J d"]:
     """World positions of the joints (the translation part of the global transforms)."""
-    glob = forward_kinematics(skeleton, pose)
-    d = skeleton.dim
-    return glob[..., :d, d]
+    _check_skeleton(skeleton)
+    pose = _check_pose(skeleton, pose)
+    return _positions_kernel(skeleton.rest, pose, parents=skeleton.parents)
+
+
+@functools.partial(checked_jit, static_argnames=("parents",))
+def _positions_kernel(rest, pose, *, parents):
+    d = rest.shape[-1] - 1
+    return _fk_kernel(rest, pose, parents=parents)[..., :d, d]
 
 
 def limit_angles(
