@@ -108,14 +108,14 @@ def test_bezier_method_per_segment_easing():
 def test_check_grads_interpolation():
     t = jnp.array([0.3, 1.7, 3.1])
     for method in ("linear", "catmull_rom", "bezier"):
-        check_grads(
-            lambda v, s, m=method: A.interpolate(TIMES, v, s, method=m),
+        check_grads(  # jitted: one compile per mode (the eager path is tested elsewhere)
+            jax.jit(lambda v, s, m=method: A.interpolate(TIMES, v, s, method=m)),
             (VALUES, t),
             order=1,
             modes=["rev", "fwd"],
         )
     check_grads(
-        lambda u: A.cubic_bezier_easing(u, (0.3, 0.1, 0.7, 0.9)),
+        jax.jit(lambda u: A.cubic_bezier_easing(u, (0.3, 0.1, 0.7, 0.9))),
         (jnp.array([0.2, 0.5, 0.8]),),
         order=1,
     )
@@ -213,7 +213,7 @@ def test_rotation_keys_slerp_and_squad():
     # squad is C1 in time at interior keys (uneven spacing too); slerp is not.
     def velocity(method, s):
         f = lambda s: A.interpolate_rotations(times, quats, s, method=method)
-        return jax.vmap(lambda s: jax.jvp(f, (s,), (jnp.ones_like(s),))[1])(s)
+        return jax.jit(jax.vmap(lambda s: jax.jvp(f, (s,), (jnp.ones_like(s),))[1]))(s)
 
     keys = times[1:-1]
     for method, continuous in (("squad", True), ("slerp", False)):
@@ -254,7 +254,7 @@ def test_tracks_vectorized_over_tracks_and_times(maybe_jit):
         position=jnp.asarray(rng.normal(size=(b, k, 3))),
         rotation=jnp.asarray(_random_quats(4, b * k).reshape(b, k, 4)),
         scale=jnp.asarray(rng.uniform(0.5, 2, (b, k, 3))),
-        colour=jnp.asarray(rng.uniform(0, 1, (b, k, 3))),
+        color=jnp.asarray(rng.uniform(0, 1, (b, k, 3))),
         method="catmull_rom",
     )
     t = jnp.linspace(0, 4, 11)

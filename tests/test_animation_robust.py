@@ -252,3 +252,156 @@ def test_easing_uses_the_bernstein_form():
         lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
     expected = bez(0.5 * (lo + hi), y1, y2)
     np.testing.assert_allclose(A.cubic_bezier_easing(u, "ease_in_out"), expected, atol=1e-12)
+
+
+# --------------------------------------------------------------------------- issue 17: values
+
+
+K4 = jnp.array([0.0, 1.0, 2.0, 3.0])
+V4 = jnp.array([[0.0, 1.0], [1.0, 0.0], [2.0, 2.0], [0.0, 3.0]])
+Q4 = jnp.asarray(np.stack([Q, -Q[[1, 0, 3, 2]], Q[[2, 3, 0, 1]], Q]))
+T2 = jnp.array([0.5, 2.5])
+NAN4 = jnp.array([0.0, np.nan, 2.0, 3.0])
+TRACK = A.Track(times=K4, position=np.ones((4, 3)), rotation=np.asarray(Q4))
+
+
+def _nan_like(x):
+    return jnp.full(jnp.shape(x), jnp.nan)
+
+
+VALUE_CASES = {
+    "interpolate times": (lambda x: A.interpolate(x, V4, T2), NAN4, "`times` must be finite"),
+    "interpolate values": (lambda x: A.interpolate(K4, x, T2), _nan_like(V4), "`values`"),
+    "interpolate t": (lambda x: A.interpolate(K4, V4, x), _nan_like(T2), "`t` must be finite"),
+    "interpolate tension": (
+        lambda x: A.interpolate(K4, V4, T2, method="catmull_rom", tension=x),
+        jnp.array(np.nan),
+        "`tension` must be finite",
+    ),
+    "interpolate unsorted": (
+        lambda x: A.interpolate(x, V4, T2),
+        K4[::-1],
+        "`times` must be strictly increasing",
+    ),
+    "interpolate easing": (
+        lambda x: A.interpolate(K4, V4, T2, method="bezier", easing=x),
+        jnp.array([1.5, 0.0, 0.5, 1.0]),
+        "`easing` x1 and x2",
+    ),
+    "rotations quats": (
+        lambda x: A.interpolate_rotations(K4, x, T2),
+        _nan_like(Q4),
+        "`quats` must be finite",
+    ),
+    "rotations zero": (
+        lambda x: A.interpolate_rotations(K4, x, T2, method="squad"),
+        Q4.at[1].set(0.0),
+        "`quats` must be non-zero",
+    ),
+    "tangents tension": (
+        lambda x: A.catmull_rom_tangents(K4, V4, tension=x),
+        jnp.array(np.inf),
+        "`tension` must be finite",
+    ),
+    "easing u": (lambda x: A.ease_in_out(x), _nan_like(T2), "`u` must be finite"),
+    "track t": (lambda x: TRACK(x), _nan_like(T2), "`t` must be finite"),
+    "squad_inner q": (lambda x: A.squad_inner(Q, x, Q), _nan_like(Q), "`q` must be finite"),
+    "squad u": (lambda x: A.squad(Q, Q, Q, Q, x), _nan_like(T2), "`u` must be finite"),
+    "skin weights": (
+        lambda x: A.skin(V4, x, jnp.broadcast_to(jnp.eye(3), (2, 3, 3))),
+        jnp.full((4, 2), np.nan),
+        "`weights` must be finite",
+    ),
+    "skin atol": (
+        lambda x: A.skin(
+            V4, jnp.full((4, 2), 0.5), jnp.broadcast_to(jnp.eye(3), (2, 3, 3)), atol=x
+        ),
+        jnp.array(-1.0),
+        "`atol` must be >= 0",
+    ),
+    "chain lengths": (lambda x: A.chain(x).rest, NAN4, "`lengths` must be finite"),
+    "pose_2d": (A.pose_2d, NAN4, "`angles` must be finite"),
+    "pose_3d zero": (A.pose_3d, jnp.zeros((2, 4)), "`rotations` quaternions must be non-zero"),
+    "limit_angles": (
+        lambda x: A.limit_angles(jnp.zeros(2), x),
+        jnp.array([[0.0, 1.0], [1.0, np.nan]]),
+        "`limits` must be finite",
+    ),
+    "fk pose": (
+        lambda x: A.forward_kinematics(A.chain([1.0, 1.0]), x),
+        jnp.full((3, 3, 3), np.nan),
+        "`pose` must be finite",
+    ),
+    "damped_spring target": (
+        lambda x: A.damped_spring(0.0, 0.0, x, stiffness=1.0, damping=0.1, dt=0.1),
+        jnp.array([1.0, np.nan]),
+        "`target` must be finite",
+    ),
+    "bone_weights vertices": (
+        lambda x: A.bone_weights(x, jnp.ones((1, 2, 2))),
+        jnp.full((2, 2), np.inf),
+        "`vertices` must be finite",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", sorted(VALUE_CASES))
+def test_bad_values_name_the_argument_eagerly_and_under_jit(case, maybe_jit):
+    from gfxlab._checks import check_message
+
+    fn, bad, message = VALUE_CASES[case]
+    with pytest.raises(Exception) as info:  # ValueError eagerly, JaxRuntimeError under jit
+        jax.block_until_ready(maybe_jit(fn)(bad))
+    assert message in (check_message(info.value) or ""), str(info.value)[-300:]
+
+
+@pytest.mark.parametrize(
+    "call, error, message",
+    [
+        (lambda: A.interpolate(K4, V4, T2, tension=None), TypeError, "`tension`"),
+        (lambda: A.interpolate(K4, V4, T2, easing=None), TypeError, "`easing`"),
+        (lambda: A.interpolate(K4, V4, T2, easing="bouncy"), ValueError, "`easing`"),
+        (lambda: A.interpolate(K4, V4, T2, method=None), ValueError, "`method`"),
+        (lambda: A.interpolate(jnp.zeros(7), V4, T2), ValueError, "`times`"),
+        (lambda: A.cubic_bezier_easing(T2, iterations=10**12), ValueError, "`iterations`"),
+        (lambda: A.format_tree([A.Node("a", 0, 8)], max_children=10**12), ValueError, "max_"),
+        (lambda: A.format_tree(None), TypeError, "`nodes`"),
+        (lambda: A.Particles(None, np.zeros((2, 2)), np.zeros(2)), TypeError, "`position`"),
+        (
+            lambda: A.Particles(np.zeros((2, 2)), np.full((2, 2), np.nan), np.zeros(2)),
+            ValueError,
+            "`velocity` must be finite",
+        ),
+        (lambda: A.Particles(np.zeros((2, 2)), np.zeros((2, 2)), np.zeros(3)), ValueError, "birth"),
+        (lambda: A.Skeleton(None, np.zeros((1, 3, 3))), TypeError, "`parents`"),
+        (lambda: A.Skeleton("ab", np.zeros((2, 3, 3))), TypeError, "`parents`"),
+        (lambda: A.Skeleton([-1], np.full((1, 3, 3), np.nan)), ValueError, "`rest`"),
+        (lambda: A.solve_ik(A.chain([1.0]), [1.0, 0.0], effector=0.5), TypeError, "`effector`"),
+        (lambda: A.skinning_matrices(None, None), TypeError, "`skeleton`"),
+        (lambda: A.emit("key", 3, origin=np.zeros(2), direction=[1.0, 0.0]), TypeError, "`key`"),
+        (lambda: A.chain(np.ones(A.MAX_JOINTS)), ValueError, "MAX_JOINTS"),
+        (lambda: A.bezier_path(np.zeros((3, 5))), ValueError, "`control_points`"),
+        (lambda: A.curve_deform(V4, A.bezier_path(V4), samples=10**9), ValueError, "`samples`"),
+    ],
+)
+def test_static_arguments_are_checked(call, error, message):
+    with pytest.raises(error, match=message):
+        call()
+
+
+def test_ik_result_checks_its_fields():
+    result = A.solve_ik(A.chain([1.0, 1.0]), [1.0, 1.0], max_steps=5)
+    assert isinstance(result, A.IKResult)
+    angles, glob, effector, fit = result  # still a tuple
+    with pytest.raises(ValueError, match="`angles`"):
+        A.IKResult(np.zeros(7), glob, effector, fit)
+    with pytest.raises(ValueError, match="`effector` must be finite"):
+        A.IKResult(angles, glob, effector * np.nan, fit)
+    with pytest.raises(TypeError, match="`fit`"):
+        A.IKResult(angles, glob, effector, None)
+
+
+def test_limit_angles_without_limits_is_the_identity():
+    raw = jnp.array([0.3, -2.0])
+    np.testing.assert_array_equal(A.limit_angles(raw), raw)
+    np.testing.assert_allclose(A.limit_angles(raw, jnp.array([[0.0, 2.0]] * 2)), 1 + np.sin(raw))

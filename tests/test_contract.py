@@ -109,7 +109,113 @@ for _name in ("cohen_sutherland", "cohen_sutherland_steps", "liang_barsky"):
     BASELINES[f"clipping.{_name}"] = {"segments": [[[-1.0, 0.5], [2.0, 0.5]]]}
 # Baselines of the other modules: each module's entries go in its own block below.
 # -- animation, mesh
-BASELINES |= {}
+
+
+class _Made:
+    """A baseline that is an object (a Skeleton, a Mesh...): built when the sweep asks
+    for it, after gfxlab and JAX are set up (`make` takes no arguments)."""
+
+    def __init__(self, make):
+        self.make = make
+
+
+class _Built(dict):
+    """A function's baselines where `_Made` entries are built on `get`."""
+
+    def get(self, key, default=None):
+        value = super().get(key, default)
+        return value.make() if isinstance(value, _Made) else value
+
+
+def _gfx(module: str):
+    return importlib.import_module(f"gfxlab.{module}")
+
+
+_CHAIN = _Made(lambda: _gfx("animation").chain([1.0, 1.0]))
+_CUBE = _Made(lambda: _gfx("mesh").cube())
+_EYE3 = [[[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]]]
+_TIMES5 = [0.1, 0.3, 0.5, 0.7, 0.9]  # any shape is valid: 5 entries get no "shape" case
+_NOISE_X = {"x": [[0.1, 0.2], [0.3, 0.4]]}
+_TETRA = {
+    "vertices": [[0.0, 0, 0], [1.0, 0, 0], [0.0, 1, 0], [0.0, 0, 1]],
+    "faces": [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+}
+
+
+def _ik_result():
+    animation = _gfx("animation")
+    result = animation.solve_ik(animation.chain([1.0, 1.0]), [1.0, 1.0], max_steps=2)
+    return result
+
+
+BASELINES |= {
+    "animation.skin": {
+        "vertices": [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]],
+        "weights": [[0.25] * 4] * 4,
+        "bone_transforms": _EYE3 * 4,
+    },
+    "animation.skinning_matrices": _Built(skeleton=_CHAIN),
+    "animation.bezier_path": {"control_points": [[0.0, 0.0], [1.0, 1.0], [2.0, 0.0]]},
+    "animation.curve_deform": _Built(
+        path=_Made(lambda: _gfx("animation").bezier_path([[0.0, 0.0], [1.0, 1.0], [2.0, 0.0]])),
+        vertices=[[0.0, 0.0], [1.0, 0.1], [2.0, 0.0]],
+    ),
+    "animation.cubic_bezier_easing": {"u": _TIMES5},
+    "animation.ease_in": {"u": _TIMES5},
+    "animation.ease_out": {"u": _TIMES5},
+    "animation.ease_in_out": {"u": _TIMES5},
+    "animation.interpolate": {"t": _TIMES5},
+    "animation.interpolate_rotations": {"t": _TIMES5},
+    "animation.Track": {"times": [0.0, 1.0, 2.0, 3.0], "position": [[0.0, 1.0, 2.0]] * 4},
+    "animation.simulate_particles": _Built(
+        particles=_Made(
+            lambda: _gfx("animation").emit(
+                __import__("jax").random.key(0), 4, origin=[0.0, 0.0], direction=[1.0, 0.0]
+            )
+        )
+    ),
+    "animation.damped_spring": {"steps": 3},
+    "animation.slerp": {"u": _TIMES5},  # u broadcasts against the keys' batch
+    "animation.squad": {"u": _TIMES5},
+    "animation.Particles": {
+        "position": [[0.0, 0.0], [1.0, 0.0]],
+        "velocity": [[0.0, 1.0], [1.0, 1.0]],
+        "birth": [0.0, 0.5],
+    },
+    "animation.value_noise": _NOISE_X,
+    "animation.gradient_noise": _NOISE_X,
+    "animation.fractal_noise": _NOISE_X,
+    "animation.chain": {"lengths": [1.0] * 5},
+    "animation.pose_2d": {"angles": _TIMES5},
+    "animation.Skeleton": {"parents": (-1, 0, 1), "rest": _EYE3 * 3},
+    "animation.forward_kinematics": _Built(skeleton=_CHAIN),
+    "animation.forward_kinematics_loop": _Built(skeleton=_CHAIN),
+    "animation.joint_positions": _Built(skeleton=_CHAIN),
+    "animation.limit_angles": {"raw": _TIMES5},
+    "animation.solve_ik": _Built(skeleton=_CHAIN, target=[1.0, 1.0], max_steps=2),
+    "animation.IKResult": _Built(
+        angles=[0.0, 0.0, 0.0],
+        globals=_EYE3 * 3,
+        effector=[2.0, 0.0],
+        fit=_Made(lambda: _ik_result().fit),
+    ),
+    "animation.save_animation": {
+        "quality": None,  # the default: the codec's own
+        "frames": [[[[0.5] * 3] * 4] * 4] * 2,
+        "path": "/tmp/gfxlab_contract_animation.gif",
+    },
+    "animation.format_tree": _Built(
+        nodes=_Made(lambda: (_gfx("animation").Node("RIFF", 0, 12),)), max_children=4
+    ),
+    "mesh.Mesh": _TETRA,
+    "mesh.revolve": {"profile": [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]},
+    "mesh.obj_text": _Built(mesh=_CUBE),
+    "mesh.check_faces": {"faces": [[0, 1, 2]], "num_vertices": 4},
+    "mesh.check_colors": {"colors": [[0.5, 0.5, 0.5]] * 4, "count": 4},
+    "mesh.laplacian_loss": _Built(mesh=_CUBE),
+    "mesh.edge_length_loss": _Built(mesh=_CUBE),
+    "mesh.normal_consistency_loss": _Built(mesh=_CUBE),
+}
 # -- render
 BASELINES |= {}
 _R, _mesh, _view = (importlib.import_module(f"gfxlab.{_m}") for _m in ("render", "mesh", "viewing"))

@@ -276,3 +276,43 @@ def test_chamfer_distance_against_scipy():
         M.chamfer_distance(a, np.zeros((0, 3)))
     with pytest.raises(ValueError, match="`a`"):
         M.chamfer_distance(np.full((2, 3), np.nan), b)
+
+
+@pytest.mark.parametrize(
+    "call, error, message",
+    [
+        (lambda: M.cylinder(segments=10**12), ValueError, "`segments` must be <="),
+        (lambda: M.torus(major_segments=10**12), ValueError, "`major_segments` must be <="),
+        (lambda: M.torus(minor_segments=10**6), ValueError, "`minor_segments` must be <="),
+        (lambda: M.torus(major_segments=60_000, minor_segments=60_000), ValueError, "elements"),
+        (lambda: M.pawn(segments=10**12), ValueError, "`segments` must be <="),
+        (lambda: M.revolve([[0.0, 0.0], [1.0, 1.0]], segments=2**17), ValueError, "`segments`"),
+        (lambda: M.revolve(None), TypeError, "`profile`"),
+        (lambda: M.revolve([[0.0, 0.0], [np.nan, 1.0]]), ValueError, "`profile` must be finite"),
+        (lambda: M.check_faces([[0, 1, 2]], 3, name="no-such-name"), ValueError, "`name`"),
+        (lambda: M.check_faces([[0, 1, 2]], 10**12), ValueError, "`num_vertices`"),
+        (lambda: M.check_faces(None, 3), TypeError, "`faces`"),
+        (lambda: M.check_colors(np.ones((3, 3)), 3, per="pixel"), ValueError, "`per`"),
+        (lambda: M.check_colors(np.full((3, 3), np.nan), 3), ValueError, "`colors` must be fin"),
+        (lambda: M.laplacian_loss(None), TypeError, "`mesh`"),
+        (lambda: M.edge_length_loss(np.zeros((3, 3))), TypeError, "`faces`"),
+        (
+            lambda: M.normal_consistency_loss(np.full((3, 3), np.inf), np.array([[0, 1, 2]])),
+            ValueError,
+            "`mesh` must be finite",
+        ),
+    ],
+)
+def test_sizes_and_arguments_are_checked(call, error, message):
+    with pytest.raises(error, match=message):
+        call()
+
+
+def test_normals_reject_nan_vertices_eagerly_and_under_jit(maybe_jit):
+    from gfxlab._checks import check_message
+
+    vertices = jnp.eye(3).at[1, 1].set(jnp.nan)
+    for fn in (M.face_normals, M.vertex_normals):
+        with pytest.raises(Exception) as info:
+            jax.block_until_ready(maybe_jit(fn)(vertices, jnp.array([[0, 1, 2]])))
+        assert "`vertices` must be finite" in (check_message(info.value) or "")

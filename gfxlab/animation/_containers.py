@@ -55,9 +55,25 @@ class ContainerInfo:
         }
 
 
-def format_tree(nodes: list[Node], *, max_children: int = 4, indent: str = "") -> str:
+def format_tree(nodes: list[Node], *, max_children: int = 4) -> str:
     """The box/chunk tree as indented text; long runs of same-named siblings are cut
-    to `max_children` with a count of the rest."""
+    to `max_children` (1..`MAX_SHOWN_CHILDREN`) with a count of the rest."""
+    if isinstance(nodes, Node) or not isinstance(nodes, list | tuple):
+        raise TypeError(f"`nodes` must be a list of Node (ContainerInfo.tree), got {nodes!r:.60}")
+    if not all(isinstance(n, Node) for n in nodes):
+        raise TypeError("`nodes` must hold only Node entries (ContainerInfo.tree)")
+    if isinstance(max_children, bool) or not isinstance(max_children, int):
+        raise TypeError(f"`max_children` must be an int, got {max_children!r:.40}")
+    if not 1 <= max_children <= MAX_SHOWN_CHILDREN:
+        raise ValueError(f"`max_children` must be in [1, {MAX_SHOWN_CHILDREN}], got {max_children}")
+    return _format_tree(nodes, max_children, "")
+
+
+#: The most same-named siblings `format_tree` shows before cutting a run.
+MAX_SHOWN_CHILDREN = 100_000
+
+
+def _format_tree(nodes, max_children: int, indent: str) -> str:
     lines = []
     i = 0
     while i < len(nodes):
@@ -70,9 +86,7 @@ def format_tree(nodes: list[Node], *, max_children: int = 4, indent: str = "") -
             fields = ", ".join(f"{k}={v}" for k, v in n.fields.items())
             lines.append(f"{indent}{n.name} [{n.size} B]" + (f" {fields}" if fields else ""))
             if n.children:
-                lines.append(
-                    format_tree(n.children, max_children=max_children, indent=indent + "  ")
-                )
+                lines.append(_format_tree(n.children, max_children, indent + "  "))
         if run > len(shown):
             lines.append(f"{indent}... {run - len(shown)} more {node.name!r}")
         i += run

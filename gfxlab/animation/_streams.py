@@ -406,7 +406,7 @@ def _gif(data):
     pos = 13
     if packed & 0x80:
         size = 3 * 2 ** ((packed & 7) + 1)
-        tree.append(Node("global_color_table", pos, size, fields={"colours": size // 3}))
+        tree.append(Node("global_color_table", pos, size, fields={"colors": size // 3}))
         pos += size
     frames, delay_total = 0, 0
     while pos < len(data):

@@ -14,6 +14,7 @@ The curve deformer lays a shape's x axis along a path: the point `(x, y)` goes t
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 
 import jax
@@ -25,14 +26,15 @@ from .._checks import (
     as_float,
     check_finite,
     check_last_dim,
+    check_range,
     check_shape,
-    common_float,
-    finite_float,
+    checked_jit,
     safe_norm,
     static_int,
     value_error_if,
 )
-from .skeleton import Skeleton, forward_kinematics
+from .quaternions import _number
+from .skeleton import Skeleton, _check_pose, _fk
 
 __all__ = [
     "skin",
@@ -40,7 +42,11 @@ __all__ = [
     "bone_weights",
     "bezier_path",
     "curve_deform",
+    "MAX_PATH_SAMPLES",
 ]
+
+#: The most arc-length samples `curve_deform` takes.
+MAX_PATH_SAMPLES = 1 << 20
 
 
 def skin(
@@ -59,31 +65,43 @@ def skin(
       `atol`; rows not summing to 1 would scale the mesh towards the origin).
     - `bone_transforms`: `(..., B, d+1, d+1)` skinning matrices (`skinning_matrices`),
       batch dimensions broadcast against `vertices`' (e.g. many frames at once).
+    - `atol`: tolerance of the row sums, finite and >= 0.
 
-    **Returns:** `(..., N, d)` deformed vertices.
+    **Returns:** `(..., N, d)` deformed vertices. NaN/inf inputs raise `ValueError`.
     """
-    vertices, weights, bone_transforms = common_float(
-        vertices, weights, bone_transforms, names=("vertices", "weights", "bone_transforms")
-    )
+    vertices = as_float(vertices, "vertices")
+    weights = as_float(weights, "weights")
+    bone_transforms = as_float(bone_transforms, "bone_transforms")
     d = check_last_dim(vertices, "vertices", (2, 3), "2D or 3D points")
-    n = vertices.shape[-2] if vertices.ndim >= 2 else None
     if vertices.ndim < 2:
         raise ValueError(f"`vertices` must have shape (..., N, {d}), got {vertices.shape}")
+    n = vertices.shape[-2]
     if weights.ndim != 2 or weights.shape[0] != n:
         raise ValueError(
-            f"`weights` must have shape ({n}, B) (one row per vertex), got {weights.shape}"
+            f"`weights` must have shape ({n}, B) (one row per vertex of `vertices` "
+            f"{vertices.shape}), got {weights.shape}"
         )
     b = weights.shape[1]
-    check_shape(bone_transforms, "bone_transforms", (..., b, d + 1, d + 1))
+    if bone_transforms.shape[-3:] != (b, d + 1, d + 1):
+        raise ValueError(
+            f"`bone_transforms` must have shape (..., {b}, {d + 1}, {d + 1}): one matrix per "
+            f"column of `weights` {weights.shape} for {d}D `vertices`, got {bone_transforms.shape}"
+        )
+    atol = _number(atol, "atol")
+    return _skin_kernel(vertices, weights, bone_transforms, atol)
+
+
+@checked_jit
+def _skin_kernel(vertices, weights, bone_transforms, atol):
+    dtype = jnp.result_type(vertices, weights, bone_transforms)
+    vertices = check_finite(vertices.astype(dtype), "vertices")
+    weights = check_finite(weights.astype(dtype), "weights")
+    bone_transforms = check_finite(bone_transforms.astype(dtype), "bone_transforms")
+    atol = check_range(check_finite(atol.astype(dtype), "atol"), "atol", minimum=0)
     bad = (jnp.abs(jnp.sum(weights, axis=-1) - 1) > atol) | jnp.any(weights < 0, axis=-1)
     weights = value_error_if(
-        weights, bad, f"`weights` rows must be non-negative and sum to 1 (within {atol})"
+        weights, bad, "`weights` rows must be non-negative and sum to 1 (within `atol`)"
     )
-    return _skin_kernel(vertices, weights, bone_transforms)
-
-
-@jax.jit
-def _skin_kernel(vertices, weights, bone_transforms):
     n, b = weights.shape
     d = vertices.shape[-1]
     # Blend the top d rows of the matrices with one GEMM, then apply them.
@@ -93,7 +111,7 @@ def _skin_kernel(vertices, weights, bone_transforms):
 
 
 def skinning_matrices(
-    skeleton: Skeleton, pose: Float[Array, "*batch J n n"] | None, *, per: str = "bone"
+    skeleton: Skeleton, pose: Float[Array, "*batch J n n"] | None = None, *, per: str = "bone"
 ) -> Float[Array, "*batch B n n"]:
     """The transforms that `skin` blends: `global(pose) @ inverse(global(rest))`.
 
@@ -109,13 +127,23 @@ def skinning_matrices(
 
     **Returns:** `(..., B, n, n)` or `(..., J, n, n)`.
     """
-    if per not in ("bone", "joint"):
+    if not isinstance(per, str) or per not in ("bone", "joint"):
         raise ValueError(f"`per` must be 'bone' or 'joint', got {per!r}")
-    bind = forward_kinematics(skeleton, None)
-    mats = forward_kinematics(skeleton, pose) @ jnp.linalg.inv(bind)
-    if per == "joint":
-        return mats
-    return mats[..., jnp.array([p for p, _ in skeleton.bones]), :, :]
+    if not isinstance(skeleton, Skeleton):
+        raise TypeError(f"`skeleton` must be a Skeleton, got {type(skeleton).__name__}")
+    pose = _check_pose(skeleton, pose)
+    bones = tuple(p for p, _ in skeleton.bones) if per == "bone" else None
+    return _skinning_kernel(skeleton.rest, pose, parents=skeleton.parents, bones=bones)
+
+
+@functools.partial(checked_jit, static_argnames=("parents", "bones"))
+def _skinning_kernel(rest, pose, *, parents, bones):
+    dtype = jnp.result_type(rest, pose)
+    rest = check_finite(rest.astype(dtype), "skeleton.rest")
+    pose = check_finite(pose.astype(dtype), "pose")
+    bind = _fk(rest, jnp.eye(rest.shape[-1], dtype=dtype), parents)
+    mats = _fk(rest, pose, parents) @ jnp.linalg.inv(bind)
+    return mats if bones is None else mats[..., jnp.array(bones), :, :]
 
 
 def _point_segment_distance(points, a, b):
@@ -149,22 +177,25 @@ def bone_weights(
 
     **Returns:** `(N, B)` weights, rows summing to 1.
     """
-    vertices, segments = common_float(vertices, segments, names=("vertices", "segments"))
+    vertices, segments = as_float(vertices, "vertices"), as_float(segments, "segments")
     d = check_last_dim(vertices, "vertices", (2, 3), "2D or 3D points")
     check_shape(vertices, "vertices", (None, d))
     check_shape(segments, "segments", (None, 2, d))
-    vertices, segments = check_finite(vertices, "vertices"), check_finite(segments, "segments")
-    falloff = finite_float(falloff, "falloff").astype(vertices.dtype)
-    falloff = value_error_if(
-        falloff, falloff <= 0, "`falloff` must be positive (it keeps weights finite on a bone)"
-    )
-    power = finite_float(power, "power").astype(vertices.dtype)
-    power = value_error_if(power, power < 0, "`power` must be >= 0")
+    falloff, power = _number(falloff, "falloff"), _number(power, "power")
     return _weights_kernel(vertices, segments, falloff, power)
 
 
-@jax.jit
+@checked_jit
 def _weights_kernel(vertices, segments, falloff, power):
+    dtype = jnp.result_type(vertices, segments)
+    vertices = check_finite(vertices.astype(dtype), "vertices")
+    segments = check_finite(segments.astype(dtype), "segments")
+    falloff = check_finite(falloff.astype(dtype), "falloff")
+    falloff = value_error_if(
+        falloff, falloff <= 0, "`falloff` must be positive (it keeps weights finite on a bone)"
+    )
+    power = check_finite(power.astype(dtype), "power")
+    power = value_error_if(power, power < 0, "`power` must be >= 0")
     dist = _point_segment_distance(vertices, segments[:, 0], segments[:, 1])
     # log-space normalisation: stable for high powers
     logits = -power * jnp.log(falloff + dist)
@@ -182,6 +213,8 @@ def bezier_path(control_points: Float[Array, "M d"]) -> Callable[[jax.Array], ja
         raise ValueError(
             f"`control_points` must have shape (M >= 2, d), got {control_points.shape}"
         )
+    check_last_dim(control_points, "control_points", (2, 3), "2D or 3D points")
+    control_points = check_finite(control_points, "control_points")
 
     def path(u):
         u = as_float(u, "u")
@@ -225,7 +258,10 @@ def curve_deform(
     vertices = as_float(vertices, "vertices")
     d = check_last_dim(vertices, "vertices", (2, 3), "2D or 3D points")
     check_shape(vertices, "vertices", (None, d))
-    samples = static_int(samples, "samples", minimum=2)
+    if vertices.shape[0] == 0:
+        raise ValueError("`vertices` must hold at least one vertex, got shape (0, d)")
+    vertices = check_finite(vertices, "vertices")
+    samples = static_int(samples, "samples", minimum=2, maximum=MAX_PATH_SAMPLES)
     if not callable(path):
         raise TypeError(f"`path` must be a function u -> points, got {type(path).__name__}")
     dtype = vertices.dtype
@@ -241,7 +277,7 @@ def curve_deform(
     total = arc[-1]
     if length is None:
         length = jnp.max(vertices[:, 0])
-    length = as_float(length, "length").astype(dtype)
+    length = check_finite(as_float(length, "length").astype(dtype), "length")
     length = value_error_if(
         length, length <= 0, "`length` must be positive (the shape's x extent along the path)"
     )
@@ -258,7 +294,10 @@ def curve_deform(
     if d == 2:
         normal = jnp.stack([-t_hat[:, 1], t_hat[:, 0]], axis=-1)
         return base + vertices[:, 1:2] * normal
-    up = jnp.array([0.0, 0.0, 1.0], dtype) if up is None else as_float(up, "up").astype(dtype)
+    if up is None:
+        up = jnp.array([0.0, 0.0, 1.0], dtype)
+    up = check_finite(as_float(up, "up").astype(dtype), "up")
+    check_shape(up, "up", (3,))
     normal = jnp.cross(up, t_hat)
     nnorm = safe_norm(normal, keepdims=True)
     normal = normal / jnp.where(nnorm > 0, nnorm, 1.0)

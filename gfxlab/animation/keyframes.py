@@ -3,7 +3,7 @@
 `interpolate` fills the frames between keys (`(time, value)` pairs) by step, linear,
 cubic Hermite / Catmull-Rom or Bezier-eased interpolation; `interpolate_rotations`
 does the same for quaternion keys with slerp or squad; a `Track` bundles channels
-(position, rotation, scale, colour) that share key times and evaluates any number of
+(position, rotation, scale, color) that share key times and evaluates any number of
 tracks at any number of times in one vectorized call.
 
 Easing curves are cubic Bezier timing curves as in animation tools and CSS: the curve
@@ -15,33 +15,22 @@ from __future__ import annotations
 
 import functools
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 from .. import curves
 from .._checks import (
     as_float,
     check_finite,
-    check_last_dim,
     check_shape,
-    common_float,
-    is_traced,
+    checked_jit,
     safe_divide,
     static_int,
     value_error_if,
 )
-from .quaternions import (
-    quat_conjugate,
-    quat_exp,
-    quat_log,
-    quat_multiply,
-    quat_normalize,
-    quat_to_matrix,
-    slerp,
-    squad,
-)
+from .quaternions import _conj, _exp, _log, _mul, _number, _slerp, _squad
 
 __all__ = [
     "EASINGS",
@@ -55,6 +44,7 @@ __all__ = [
     "Track",
     "TrackSample",
     "METHODS",
+    "MAX_EASING_ITERATIONS",
 ]
 
 #: Interpolation methods of `interpolate`.
@@ -69,6 +59,22 @@ EASINGS = {
     "ease_in_out": (0.42, 0.0, 0.58, 1.0),
 }
 
+# The named easings as host arrays (passed to the compiled kernels without conversion).
+_EASING_ARRAYS = {name: np.asarray(value) for name, value in EASINGS.items()}
+
+#: The most Newton/bisection steps `cubic_bezier_easing` takes (64 bisections already
+#: reach the float64 resolution of `[0, 1]`).
+MAX_EASING_ITERATIONS = 64
+
+# Public functions check shapes and static arguments in Python and run one compiled
+# kernel (`checked_jit`) that checks values (NaN/inf, unsorted keys) and computes; the
+# kernels share the unchecked math (`_interp`, `_rotations`, `_ease`).
+
+
+def _promote(*arrays):
+    dtype = jnp.result_type(*[a for a in arrays if a is not None])
+    return [None if a is None else a.astype(dtype) for a in arrays]
+
 
 def _bezier_1d(s, a, b):
     # Cubic Bezier with control values 0, a, b, 1, and its derivative (the degree-2
@@ -77,6 +83,29 @@ def _bezier_1d(s, a, b):
     value = cubic[..., 1] * a + cubic[..., 2] * b + cubic[..., 3]
     slope = 3 * (quadratic[..., 0] * a + quadratic[..., 1] * (b - a) + quadratic[..., 2] * (1 - b))
     return value, slope
+
+
+def _control(control, name: str):
+    """Static checks of an easing: a name from `EASINGS` or `(..., 4)` numbers."""
+    if isinstance(control, str):
+        if control not in EASINGS:
+            raise ValueError(
+                f"`{name}` must be one of {sorted(EASINGS)} or (x1, y1, x2, y2), got {control!r}"
+            )
+        return _EASING_ARRAYS[control]
+    control = as_float(control, name)
+    check_shape(control, name, (..., 4))
+    return control
+
+
+def _check_control(control, name: str):
+    """Traced checks of an easing: finite, with `x1, x2` in `[0, 1]`."""
+    control = check_finite(control, name)
+    x1, x2 = control[..., 0], control[..., 2]
+    bad = (x1 < 0) | (x1 > 1) | (x2 < 0) | (x2 > 1)
+    return value_error_if(
+        control, bad, f"`{name}` x1 and x2 must lie in [0, 1] (time must not run backwards)"
+    )
 
 
 def cubic_bezier_easing(
@@ -94,32 +123,28 @@ def cubic_bezier_easing(
 
     **Arguments:**
 
-    - `u`: time fractions, clipped to `[0, 1]`.
+    - `u`: finite time fractions, clipped to `[0, 1]`.
     - `control`: `(x1, y1, x2, y2)` (broadcast against `u`) with `x1, x2` in `[0, 1]`
       so that time runs forwards, or a name from `EASINGS`.
-    - `iterations`: Newton/bisection steps (static).
+    - `iterations`: Newton/bisection steps (static, `1..MAX_EASING_ITERATIONS`).
 
     **Returns:** the eased fractions, same shape as `u`.
     """
-    if isinstance(control, str):
-        if control not in EASINGS:
-            raise ValueError(
-                f"`control` must be one of {sorted(EASINGS)} or (x1, y1, x2, y2), got {control!r}"
-            )
-        control = EASINGS[control]
-    u, control = common_float(u, control, names=("u", "control"))
-    check_shape(control, "control", (..., 4))
-    x1, y1, x2, y2 = jnp.moveaxis(control, -1, 0)
-    bad = (x1 < 0) | (x1 > 1) | (x2 < 0) | (x2 > 1)
-    x1 = value_error_if(
-        x1, bad, "`control` x1 and x2 must lie in [0, 1] (time must not run backwards)"
-    )
-    iterations = static_int(iterations, "iterations", minimum=1)
-    return _ease_kernel(u, x1, y1, x2, y2, iterations=iterations)
+    control = _control(control, "control")
+    u = as_float(u, "u")
+    iterations = static_int(iterations, "iterations", minimum=1, maximum=MAX_EASING_ITERATIONS)
+    return _easing_kernel(u, control, iterations=iterations)
 
 
-@functools.partial(jax.jit, static_argnames=("iterations",))
-def _ease_kernel(u, x1, y1, x2, y2, *, iterations):
+@functools.partial(checked_jit, static_argnames=("iterations",))
+def _easing_kernel(u, control, *, iterations):
+    control = control.astype(u.dtype)
+    u = check_finite(u, "u")
+    x1, y1, x2, y2 = jnp.moveaxis(_check_control(control, "control"), -1, 0)
+    return _ease(u, x1, y1, x2, y2, iterations=iterations)
+
+
+def _ease(u, x1, y1, x2, y2, *, iterations):
     u = jnp.clip(u, 0.0, 1.0)
     sx1, sx2, su = (jax.lax.stop_gradient(a) for a in (x1, x2, u))
     shape = jnp.broadcast_shapes(u.shape, x1.shape)
@@ -160,21 +185,31 @@ def ease_in_out(u: Float[Array, "*batch"]) -> Float[Array, "*batch"]:
 
 
 def _check_keys(times, values, name="values"):
+    """Static checks of key times `(K,)` and key values `(K, ...)`."""
     times = as_float(times, "times")
     if times.ndim != 1 or times.shape[0] < 1:
         raise ValueError(f"`times` must be a 1D array of key times (K,), got shape {times.shape}")
     values = as_float(values, name)
     if values.ndim < 1 or values.shape[0] != times.shape[0]:
         raise ValueError(
-            f"`{name}` must have one row per key time: shape ({times.shape[0]}, ...), "
-            f"got {values.shape}"
+            f"`{name}` must have one row per key time: `times` has shape {times.shape}, so "
+            f"`{name}` must be ({times.shape[0]}, ...), got {values.shape}"
         )
+    return times, values
+
+
+def _key_values(times, values, name: str):
+    """Traced checks of keys: finite, strictly increasing times."""
+    times = check_finite(times, "times")
     times = value_error_if(
         times,
-        jnp.any(jnp.diff(times) <= 0),
+        jnp.diff(times) <= 0,
         "`times` must be strictly increasing (sorted key times without duplicates)",
     )
-    return times, values
+    return times, check_finite(values, name)
+
+
+_scalar = _number
 
 
 def _segment(times, t):
@@ -195,15 +230,23 @@ def catmull_rom_tangents(
 
     Interior keys get `(1 - tension) (p[i+1] - p[i-1]) / (t[i+1] - t[i-1])` (Catmull-Rom
     for `tension = 0`, works for uneven key spacing); end keys get one-sided differences.
+    A single key has zero tangents.
     """
     times, values = _check_keys(times, values)
+    return _tangents_kernel(times, values, _scalar(tension, "tension"))
+
+
+@checked_jit
+def _tangents_kernel(times, values, tension):
+    times, values = _promote(times, values)
+    tension = tension.astype(values.dtype)
+    times, values = _key_values(times, values, "values")
+    tension = check_finite(tension, "tension")
     if times.shape[0] < 2:
         return jnp.zeros_like(values)
-    times, values = common_float(times, values, names=("times", "values"))
-    return _cardinal_tangents(times, values, jnp.asarray(tension, values.dtype))
+    return _cardinal_tangents(times, values, tension)
 
 
-@jax.jit
 def _cardinal_tangents(times, values, tension):
     expand = (slice(None),) + (None,) * (values.ndim - 1)
     dp = jnp.concatenate(
@@ -245,55 +288,68 @@ def interpolate(
     - `easing`: for `"bezier"`: a name from `EASINGS`, `(x1, y1, x2, y2)`, or one
       easing per segment `(K-1, 4)`.
 
+    Every argument is checked whatever the method (NaN/inf and unsorted keys raise
+    `ValueError` naming the argument). Called eagerly it is one compiled call.
+
     **Returns:** `(*t.shape, *values.shape[1:])`.
     """
-    if method not in METHODS:
+    if not isinstance(method, str) or method not in METHODS:
         raise ValueError(f"`method` must be one of {METHODS}, got {method!r}")
     times, values = _check_keys(times, values)
-    times, values, t = common_float(times, values, t, names=("times", "values", "t"))
+    t = as_float(t, "t")
     k = times.shape[0]
-    control = m = None
-    if method == "bezier":
-        control = easing
-        if isinstance(control, str):
-            if control not in EASINGS:
-                raise ValueError(
-                    f"`easing` must be one of {sorted(EASINGS)} or (x1, y1, x2, "
-                    f"y2), got {control!r}"
-                )
-            control = EASINGS[control]
-        control = as_float(control, "easing").astype(values.dtype)
-        check_shape(control, "easing", (..., 4))
-        if control.ndim == 2 and control.shape[0] != k - 1:
+    control = _control(easing, "easing")
+    if control.ndim == 2 and control.shape[0] != k - 1:
+        raise ValueError(f"`easing` per segment must have shape ({k - 1}, 4), got {control.shape}")
+    if control.ndim > 2:
+        raise ValueError(f"`easing` must be (4,) or ({k - 1}, 4), got {control.shape}")
+    if method == "hermite" and tangents is None:
+        raise ValueError('`tangents` (K, ...) are required for method="hermite"')
+    if tangents is not None:
+        tangents = as_float(tangents, "tangents")
+        if tangents.shape != values.shape:
             raise ValueError(
-                f"`easing` per segment must have shape ({k - 1}, 4), got {control.shape}"
+                f"`tangents` must have the shape of `values` {values.shape}, got {tangents.shape}"
             )
-        if control.ndim > 2:
-            raise ValueError(f"`easing` must be (4,) or ({k - 1}, 4), got {control.shape}")
-        bad = (
-            (control[..., 0] < 0)
-            | (control[..., 0] > 1)
-            | (control[..., 2] < 0)
-            | (control[..., 2] > 1)
-        )
-        control = value_error_if(
-            control, bad, "`easing` x1 and x2 must lie in [0, 1] (time must not run backwards)"
-        )
-    elif method == "catmull_rom" and k > 1:
-        m = _cardinal_tangents(times, values, jnp.asarray(tension, values.dtype))
-    elif method == "hermite":
-        if tangents is None:
-            raise ValueError('`tangents` (K, ...) are required for method="hermite"')
-        m = as_float(tangents, "tangents").astype(values.dtype)
-        if m.shape != values.shape:
-            raise ValueError(
-                f"`tangents` must have the shape of `values` {values.shape}, got {m.shape}"
-            )
-    return _interpolate_kernel(times, values, t, m, control, method=method)
+    tension = _scalar(tension, "tension")
+    return _interpolate_kernel(times, values, t, tangents, control, tension, method=method)
 
 
-@functools.partial(jax.jit, static_argnames=("method",))
-def _interpolate_kernel(times, values, t, m, control, *, method):
+@functools.partial(checked_jit, static_argnames=("method",))
+def _interpolate_kernel(times, values, t, tangents, control, tension, *, method):
+    times, values, t, tangents = _promote(times, values, t, tangents)
+    control, tension = control.astype(values.dtype), tension.astype(values.dtype)
+    times, values = _key_values(times, values, "values")
+    t = check_finite(t, "t")
+    # Checks of arguments the method may not use ride on `values` (always used), so
+    # that the compiler does not drop them.
+    values = _unused_checks(values, tension, control, tangents)
+    m = tangents
+    if method == "catmull_rom" and times.shape[0] > 1:
+        m = _cardinal_tangents(times, values, tension)
+    return _interp(times, values, t, m, control, method=method)
+
+
+def _unused_checks(values, tension, control, tangents):
+    values = value_error_if(values, ~jnp.isfinite(tension), "`tension` must be finite")
+    x1, x2 = control[..., 0], control[..., 2]
+    values = value_error_if(
+        values, ~jnp.all(jnp.isfinite(control)), "`easing` must be finite (no NaN or inf)"
+    )
+    values = value_error_if(
+        values,
+        jnp.any((x1 < 0) | (x1 > 1) | (x2 < 0) | (x2 > 1)),
+        "`easing` x1 and x2 must lie in [0, 1] (time must not run backwards)",
+    )
+    if tangents is not None:
+        values = value_error_if(
+            values, ~jnp.all(jnp.isfinite(tangents)), "`tangents` must be finite (no NaN or inf)"
+        )
+    return values
+
+
+def _interp(times, values, t, m, control, *, method):
+    """The unchecked interpolation (keys already validated)."""
     k = times.shape[0]
     i, u = _segment(times, t)
     ch = (None,) * (values.ndim - 1)
@@ -308,7 +364,7 @@ def _interpolate_kernel(times, values, t, m, control, *, method):
         if control.ndim == 2:
             control = control[i]
         x1, y1, x2, y2 = jnp.moveaxis(control, -1, 0)
-        eased = _ease_kernel(u, x1, y1, x2, y2, iterations=24)[(...,) + ch]
+        eased = _ease(u, x1, y1, x2, y2, iterations=24)[(...,) + ch]
         return p0 + eased * (p1 - p0)
     h = (times[jnp.minimum(i + 1, k - 1)] - times[i])[(...,) + ch]
     m0, m1 = m[i], m[jnp.minimum(i + 1, k - 1)]
@@ -329,6 +385,9 @@ def _align_signs(quats):
     return quats * signs[:, None]
 
 
+_ROTATION_METHODS = ("step", "slerp", "squad")
+
+
 def interpolate_rotations(
     times: Float[Array, " K"],
     quats: Float[Array, "K 4"],
@@ -341,34 +400,43 @@ def interpolate_rotations(
     **Arguments:**
 
     - `times`: `(K,)` strictly increasing key times.
-    - `quats`: `(K, 4)` key rotations `(w, x, y, z)` (normalised here; signs aligned so
-      each segment takes the shorter arc).
+    - `quats`: `(K, 4)` key rotations `(w, x, y, z)`, non-zero (normalised here; signs
+      aligned so each segment takes the shorter arc).
     - `t`: query times, any shape (clamped to the key range).
     - `method`: `"step"`, `"slerp"` (piecewise great arcs, constant angular speed) or
       `"squad"` (C1 in time through the keys, also for uneven key spacing).
 
     **Returns:** `(*t.shape, 4)` unit quaternions.
     """
-    if method not in ("step", "slerp", "squad"):
+    if not isinstance(method, str) or method not in _ROTATION_METHODS:
         raise ValueError(f"`method` must be 'step', 'slerp' or 'squad', got {method!r}")
     times, quats = _check_keys(times, quats, "quats")
     check_shape(quats, "quats", (None, 4))
-    times, quats, t = common_float(times, quats, t, names=("times", "quats", "t"))
-    return _rotations_kernel(times, quat_normalize(quats), t, method=method)
+    return _rotations_kernel(times, quats, as_float(t, "t"), method=method)
 
 
-@functools.partial(jax.jit, static_argnames=("method",))
+@functools.partial(checked_jit, static_argnames=("method",))
 def _rotations_kernel(times, quats, t, *, method):
-    q = _align_signs(quats)
+    times, quats, t = _promote(times, quats, t)
+    times, quats = _key_values(times, quats, "quats")
+    quats = value_error_if(
+        quats, jnp.sum(quats * quats, axis=-1) == 0, "`quats` must be non-zero quaternions"
+    )
+    return _rotations(times, quats, check_finite(t, "t"), method=method)
+
+
+def _rotations(times, quats, t, *, method):
+    """The unchecked rotation interpolation (keys already validated)."""
+    q = _align_signs(quats / jnp.linalg.norm(quats, axis=-1, keepdims=True))
     k = times.shape[0]
     if method == "step" or k == 1:
-        return _interpolate_kernel(times, q, t, None, None, method="step")
+        return _interp(times, q, t, None, None, method="step")
     i, u = _segment(times, t)
     q0, q1 = q[i], q[i + 1]
     if method == "slerp":
-        return slerp(q0, q1, u, shortest=False)
+        return _slerp(q0, q1, u, shortest=False)
     s_in, s_out = _squad_inners(times, q)
-    return squad(q0, s_out[i], s_in[i + 1], q1, u)
+    return _squad(q0, s_out[i], s_in[i + 1], q1, u)
 
 
 def _squad_inners(times, q):
@@ -384,159 +452,13 @@ def _squad_inners(times, q):
     h = jnp.diff(times)
     h_prev = jnp.concatenate([h[:1], h])
     h_next = jnp.concatenate([h, h[-1:]])
-    inv = quat_conjugate(q)
-    l_next = quat_log(quat_multiply(inv, padded[2:]))
-    l_prev = quat_log(quat_multiply(inv, padded[:-2]))
+    inv = _conj(q)
+    l_next = _log(_mul(inv, padded[2:]))
+    l_prev = _log(_mul(inv, padded[:-2]))
     v = (l_next - l_prev) / (h_prev + h_next)[:, None]
-    s_out = quat_multiply(q, quat_exp((v * h_next[:, None] - l_next) / 2))
-    s_in = quat_multiply(q, quat_exp(-(v * h_prev[:, None] + l_prev) / 2))
+    s_out = _mul(q, _exp((v * h_next[:, None] - l_next) / 2))
+    s_in = _mul(q, _exp(-(v * h_prev[:, None] + l_prev) / 2))
     return s_in, s_out
 
 
-class TrackSample(eqx.Module):
-    """The channels of one or more tracks at some times; absent channels are `None`."""
-
-    position: Float[Array, "*batch T d"] | None
-    rotation: Float[Array, "*batch T 4"] | None
-    scale: Float[Array, "*batch T d"] | None
-    colour: Float[Array, "*batch T c"] | None
-
-    def matrix(self) -> Float[Array, "*batch T 4 4"]:
-        """The 3D transforms `T(position) R(rotation) S(scale)` (scale first), 4x4."""
-        present = [c for c in (self.position, self.rotation, self.scale) if c is not None]
-        if not present:
-            raise ValueError("the sample has no position, rotation or scale channel")
-        batch = present[0].shape[:-1]
-        dtype = present[0].dtype
-        linear = jnp.broadcast_to(jnp.eye(3, dtype=dtype), batch + (3, 3))
-        if self.scale is not None:
-            check_shape(self.scale, "scale", (..., 3))
-            linear = linear * self.scale[..., None, :]
-        if self.rotation is not None:
-            linear = quat_to_matrix(self.rotation) @ linear
-        offset = jnp.zeros(batch + (3,), dtype)
-        if self.position is not None:
-            check_shape(self.position, "position", (..., 3))
-            offset = self.position
-        top = jnp.concatenate([linear, offset[..., None]], axis=-1)
-        bottom = jnp.broadcast_to(jnp.array([0.0, 0.0, 0.0, 1.0], dtype), batch + (1, 4))
-        return jnp.concatenate([top, bottom], axis=-2)
-
-
-def _field_converter(name: str):
-    """A converter for a `Track` field: a float array (None kept for absent channels),
-    with a `TypeError` naming the field for anything that is not numbers."""
-
-    def convert(x):
-        if x is None and name != "times":
-            return None
-        return x if is_traced(x) else as_float(x, name)
-
-    return convert
-
-
-def _check_track_values(track) -> None:
-    """Shapes and values of a Track's fields, checked eagerly at construction."""
-    times = track.times
-    if times.ndim < 1:
-        raise ValueError(f"`times` must be (*B, K) key times, got shape {times.shape}")
-    for name in ("position", "rotation", "scale", "colour"):
-        values = getattr(track, name)
-        if values is None:
-            continue
-        if values.ndim != times.ndim + 1 or values.shape[:-1] != times.shape:
-            raise ValueError(
-                f"`{name}` must be (*B, K, c) matching `times` {times.shape}, "
-                f"got shape {values.shape}"
-            )
-        if not is_traced(values):
-            check_finite(values, name)
-    if track.rotation is not None:
-        check_last_dim(track.rotation, "rotation", (4,), "quaternion keys (w, x, y, z)")
-    if not is_traced(times):
-        check_finite(times, "times")
-        if times.shape[-1] > 1:
-            value_error_if(
-                times,
-                jnp.diff(times, axis=-1) <= 0,
-                "`times` must be strictly increasing key times",
-            )
-
-
-class Track(eqx.Module):
-    """Key-framed channels sharing key times: position, rotation, scale and colour.
-
-    Fields may carry leading batch dimensions (the same for every field), one track per
-    batch entry: `Track(times (B, K), position (B, K, 3), ...)` holds `B` tracks, and
-    calling it evaluates all of them at all times in one vectorized call.
-
-    **Fields:**
-
-    - `times`: `(*B, K)` key times, strictly increasing per track.
-    - `position`, `scale`, `colour`: `(*B, K, c)` or `None`.
-    - `rotation`: `(*B, K, 4)` quaternion keys or `None`.
-    - `method`: interpolation of position/scale/colour (see `interpolate`).
-    - `rotation_method`: `"step"`, `"slerp"` or `"squad"`.
-    """
-
-    times: Float[Array, "*B K"] = eqx.field(converter=_field_converter("times"))
-    position: Float[Array, "*B K d"] | None = eqx.field(
-        default=None, converter=_field_converter("position")
-    )
-    rotation: Float[Array, "*B K 4"] | None = eqx.field(
-        default=None, converter=_field_converter("rotation")
-    )
-    scale: Float[Array, "*B K d"] | None = eqx.field(
-        default=None, converter=_field_converter("scale")
-    )
-    colour: Float[Array, "*B K c"] | None = eqx.field(
-        default=None, converter=_field_converter("colour")
-    )
-    method: str = eqx.field(default="linear", static=True)
-    rotation_method: str = eqx.field(default="slerp", static=True)
-
-    def __check_init__(self):
-        _check_track_values(self)
-        if self.method not in METHODS or self.method == "hermite":
-            raise ValueError(
-                f"`method` of a Track must be one of "
-                f"{tuple(m for m in METHODS if m != 'hermite')}, got {self.method!r}"
-            )
-        if self.rotation_method not in ("step", "slerp", "squad"):
-            raise ValueError(
-                "`rotation_method` must be 'step', 'slerp' or 'squad', got "
-                f"{self.rotation_method!r}"
-            )
-        if all(c is None for c in (self.position, self.rotation, self.scale, self.colour)):
-            raise ValueError(
-                "a Track needs at least one channel (position, rotation, scale or colour)"
-            )
-
-    def _single(self, t):
-        def channel(values):
-            return (
-                None if values is None else interpolate(self.times, values, t, method=self.method)
-            )
-
-        rotation = None
-        if self.rotation is not None:
-            rotation = interpolate_rotations(
-                self.times, self.rotation, t, method=self.rotation_method
-            )
-        return TrackSample(
-            channel(self.position), rotation, channel(self.scale), channel(self.colour)
-        )
-
-    def __call__(self, t: Float[Array, " T"]) -> TrackSample:
-        """Evaluate every track at times `t` `(T,)` (shared by all tracks).
-
-        **Returns:** a `TrackSample` with channels `(*B, T, c)`.
-        """
-        times = as_float(self.times, "times")
-        if times.ndim < 1:
-            raise ValueError(f"`times` must be (*B, K), got shape {times.shape}")
-        t = as_float(t, "t")
-        fn = lambda track: track._single(t)
-        for _ in range(times.ndim - 1):
-            fn = jax.vmap(fn)
-        return fn(self)
+from ._tracks import Track, TrackSample  # noqa: E402 - the tracks use the kernels above

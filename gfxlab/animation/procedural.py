@@ -16,11 +16,14 @@ import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float, Int
 
 from .._checks import (
+    as_float,
     check_finite,
     check_last_dim,
     check_shape,
+    checked_jit,
     common_float,
     finite_float,
+    is_traced,
     safe_norm,
     safe_normalize,
     static_int,
@@ -29,6 +32,7 @@ from .._checks import (
 
 # Noise has one owner, gfxlab.image; procedural motion re-exports it.
 from ..image import fractal_noise, gradient_noise, value_noise
+from .quaternions import _number  # noqa: E402
 
 __all__ = [
     "Particles",
@@ -80,20 +84,45 @@ def _direction(v, name: str):
 
 
 def _check_key(key) -> None:
-    if key is None:
-        raise TypeError("`key` must be a jax.random key (jax.random.key(0)), got None")
+    if not isinstance(key, jax.Array) or not (
+        jax.dtypes.issubdtype(key.dtype, jax.dtypes.prng_key)
+        or (key.dtype == jnp.uint32 and key.shape == (2,))
+    ):
+        raise TypeError(f"`key` must be a jax.random key (jax.random.key(0)), got {key!r:.60}")
+
+
+def _float_field(name: str):
+    def convert(x):
+        return x if is_traced(x) else as_float(x, name)
+
+    return convert
 
 
 class Particles(eqx.Module):
     """A particle system's state: `(N, d)` positions and velocities, `(N,)` birth times.
 
     A particle is alive (moves) once the simulation time reaches its birth time; before
-    that it waits at its start position.
+    that it waits at its start position. The fields are checked at construction
+    (`d` = 2 or 3, matching shapes, finite values).
     """
 
-    position: Float[Array, "N d"]
-    velocity: Float[Array, "N d"]
-    birth: Float[Array, " N"]
+    position: Float[Array, "N d"] = eqx.field(converter=_float_field("position"))
+    velocity: Float[Array, "N d"] = eqx.field(converter=_float_field("velocity"))
+    birth: Float[Array, " N"] = eqx.field(converter=_float_field("birth"))
+
+    def __check_init__(self):
+        check_last_dim(self.position, "position", (2, 3), "2D or 3D points")
+        check_shape(self.position, "position", (None, self.position.shape[-1]))
+        if self.velocity.shape != self.position.shape:
+            raise ValueError(
+                f"`velocity` must have the shape of `position` {self.position.shape}, "
+                f"got {self.velocity.shape}"
+            )
+        check_shape(self.birth, "birth", self.position.shape[:1])
+        for name in ("position", "velocity", "birth"):
+            value = getattr(self, name)
+            if not is_traced(value):
+                check_finite(value, name)
 
 
 def emit(
@@ -124,35 +153,39 @@ def emit(
     """
     _check_key(key)
     count = static_int(count, "count", minimum=1, maximum=MAX_PARTICLES)
-    origin, direction = common_float(origin, direction, names=("origin", "direction"))
+    origin, direction = as_float(origin, "origin"), as_float(direction, "direction")
     d = check_last_dim(origin, "origin", (2, 3), "a 2D or 3D point")
-    origin = check_finite(origin, "origin")
+    check_shape(origin, "origin", (d,))
     check_shape(direction, "direction", (d,))
-    unit = _direction(direction, "direction")
-    speed = _finite_scalar(speed, "speed", origin.dtype)
-    spread = _finite_scalar(spread, "spread", origin.dtype, low=0.0)
-    speed_jitter = _finite_scalar(speed_jitter, "speed_jitter", origin.dtype, low=0.0)
-    k1, k2 = jax.random.split(key)
-    dirs = safe_normalize(unit + spread * jax.random.normal(k1, (count, d), origin.dtype))
-    speeds = speed * (1 + speed_jitter * jax.random.normal(k2, (count, 1), origin.dtype))
-    birth = jnp.zeros((count,), origin.dtype)
+    scalars = {"speed": speed, "spread": spread, "speed_jitter": speed_jitter}
     if rate is not None:
-        rate = _finite_scalar(rate, "rate", origin.dtype, positive=True)
-        birth = jnp.arange(count, dtype=origin.dtype) / rate
+        scalars["rate"] = rate
+    scalars = {n: _scalar_arg(v, n) for n, v in scalars.items()}
+    return _emit_kernel(key, origin, direction, scalars, count=count)
+
+
+def _scalar_arg(value, name: str):
+    return _number(value, name)
+
+
+@functools.partial(checked_jit, static_argnames=("count",))
+def _emit_kernel(key, origin, direction, scalars, *, count):
+    dtype = jnp.result_type(origin, direction)
+    origin = check_finite(origin.astype(dtype), "origin")
+    unit = _direction(direction.astype(dtype), "direction")
+    speed = _finite_scalar(scalars["speed"], "speed", dtype)
+    spread = _finite_scalar(scalars["spread"], "spread", dtype, low=0.0)
+    speed_jitter = _finite_scalar(scalars["speed_jitter"], "speed_jitter", dtype, low=0.0)
+    d = origin.shape[0]
+    k1, k2 = jax.random.split(key)
+    dirs = safe_normalize(unit + spread * jax.random.normal(k1, (count, d), dtype))
+    speeds = speed * (1 + speed_jitter * jax.random.normal(k2, (count, 1), dtype))
+    birth = jnp.zeros((count,), dtype)
+    if "rate" in scalars:
+        rate = _finite_scalar(scalars["rate"], "rate", dtype, positive=True)
+        birth = jnp.arange(count, dtype=dtype) / rate
     position = jnp.broadcast_to(origin, (count, d))
     return Particles(position, dirs * speeds, birth)
-
-
-def _planes(planes, d, dtype):
-    if planes is None:
-        return jnp.zeros((0, d), dtype), jnp.zeros((0,), dtype)
-    normals, offsets = planes
-    normals, offsets = common_float(normals, offsets, names=("planes normals", "planes offsets"))
-    normals = jnp.atleast_2d(normals).astype(dtype)
-    offsets = jnp.atleast_1d(offsets).astype(dtype)
-    check_shape(normals, "planes normals", (None, d))
-    check_shape(offsets, "planes offsets", (normals.shape[0],))
-    return _direction(normals, "planes normals"), check_finite(offsets, "planes offsets")
 
 
 def simulate_particles(
@@ -188,24 +221,46 @@ def simulate_particles(
     **Returns:** `(positions, velocities)`, each `(steps + 1, N, d)` including the start.
     """
     if not isinstance(particles, Particles):
-        raise TypeError(f"`particles` must be a Particles (from emit), got {particles!r}")
+        raise TypeError(f"`particles` must be a Particles (from emit), got {particles!r:.60}")
     steps = static_int(steps, "steps", minimum=1, maximum=MAX_STEPS)
-    position = finite_float(particles.position, "particles.position")
-    d = check_last_dim(position, "particles.position", (2, 3), "2D or 3D points")
+    position = particles.position
+    d = position.shape[-1]
     _check_output_size(steps, position.shape)
-    velocity = finite_float(particles.velocity, "particles.velocity").astype(position.dtype)
-    check_shape(velocity, "particles.velocity", position.shape)
-    birth = finite_float(particles.birth, "particles.birth").astype(position.dtype)
-    check_shape(birth, "particles.birth", position.shape[:1])
-    dt = _finite_scalar(dt, "dt", position.dtype, positive=True)
     if gravity is None:
         gravity = jnp.zeros((d,), position.dtype).at[1].set(-9.81)
-    gravity = finite_float(gravity, "gravity").astype(position.dtype)
+    gravity = as_float(gravity, "gravity")
     check_shape(gravity, "gravity", (d,))
-    drag = _finite_scalar(drag, "drag", position.dtype, low=0.0)
-    restitution = _finite_scalar(restitution, "restitution", position.dtype, low=0.0)
-    friction = _finite_scalar(friction, "friction", position.dtype)
-    normals, offsets = _planes(planes, d, position.dtype)
+    scalars = {"dt": dt, "drag": drag, "restitution": restitution, "friction": friction}
+    scalars = {n: _scalar_arg(v, n) for n, v in scalars.items()}
+    if planes is not None:
+        if not isinstance(planes, tuple | list) or len(planes) != 2:
+            raise TypeError(f"`planes` must be (normals (P, d), offsets (P,)), got {planes!r:.60}")
+        normals = jnp.atleast_2d(as_float(planes[0], "planes normals"))
+        offsets = jnp.atleast_1d(as_float(planes[1], "planes offsets"))
+        check_shape(normals, "planes normals", (None, d))
+        check_shape(offsets, "planes offsets", (normals.shape[0],))
+        planes = (normals, offsets)
+    return _particles_kernel(particles, gravity, scalars, planes, steps=steps)
+
+
+@functools.partial(checked_jit, static_argnames=("steps",))
+def _particles_kernel(particles, gravity, scalars, planes, *, steps):
+    position = check_finite(particles.position, "particles.position")
+    dtype = position.dtype
+    velocity = check_finite(particles.velocity.astype(dtype), "particles.velocity")
+    birth = check_finite(particles.birth.astype(dtype), "particles.birth")
+    dt = _finite_scalar(scalars["dt"], "dt", dtype, positive=True)
+    gravity = check_finite(gravity.astype(dtype), "gravity")
+    drag = _finite_scalar(scalars["drag"], "drag", dtype, low=0.0)
+    restitution = _finite_scalar(scalars["restitution"], "restitution", dtype, low=0.0)
+    friction = _finite_scalar(scalars["friction"], "friction", dtype)
+    # Without planes these are unused: tie their checks to the positions (always used).
+    position = position + 0 * (restitution + friction)
+    if planes is None:
+        normals, offsets = jnp.zeros((0, position.shape[-1]), dtype), jnp.zeros((0,), dtype)
+    else:
+        normals = _direction(planes[0].astype(dtype), "planes normals")
+        offsets = check_finite(planes[1].astype(dtype), "planes offsets")
 
     def step(state, k):
         p, v = state
@@ -256,18 +311,33 @@ def damped_spring(
 
     **Returns:** `(T, ...)` positions after each step.
     """
-    x0, v0, target = common_float(x0, v0, target, names=("x0", "v0", "target"))
-    x0, v0 = check_finite(x0, "x0"), check_finite(v0, "v0")
-    target = check_finite(target, "target")
-    stiffness = _finite_scalar(stiffness, "stiffness", x0.dtype)
-    damping = _finite_scalar(damping, "damping", x0.dtype)
+    x0, v0, target = as_float(x0, "x0"), as_float(v0, "v0"), as_float(target, "target")
+    scalars = {"stiffness": stiffness, "damping": damping, "dt": dt}
+    scalars = {n: _scalar_arg(v, n) for n, v in scalars.items()}
+    shape = jnp.broadcast_shapes(x0.shape, v0.shape)
     if steps is not None:
         steps = static_int(steps, "steps", minimum=1, maximum=MAX_STEPS)
-        _check_output_size(steps, jnp.broadcast_shapes(x0.shape, target.shape))
-        target = jnp.broadcast_to(target, (steps,) + jnp.broadcast_shapes(x0.shape, target.shape))
-    elif target.ndim == 0 or target.shape[1:] != jnp.broadcast_shapes(x0.shape, target.shape[1:]):
-        raise ValueError("`target` must be (T, *x0.shape) or give `steps` for a constant target")
-    dt = _finite_scalar(dt, "dt", x0.dtype, positive=True)
+        shape = jnp.broadcast_shapes(shape, target.shape)
+        _check_output_size(steps, shape)
+    elif target.ndim == 0 or target.shape[1:] != jnp.broadcast_shapes(shape, target.shape[1:]):
+        raise ValueError(
+            f"`target` must be (T, *x0.shape) = (T, *{shape}), got shape {target.shape}; "
+            "or give `steps` for a constant target"
+        )
+    return _spring_kernel(x0, v0, target, scalars, steps=steps)
+
+
+@functools.partial(checked_jit, static_argnames=("steps",))
+def _spring_kernel(x0, v0, target, scalars, *, steps):
+    dtype = jnp.result_type(x0, v0, target)
+    x0, v0 = check_finite(x0.astype(dtype), "x0"), check_finite(v0.astype(dtype), "v0")
+    target = check_finite(target.astype(dtype), "target")
+    stiffness = _finite_scalar(scalars["stiffness"], "stiffness", dtype)
+    damping = _finite_scalar(scalars["damping"], "damping", dtype)
+    dt = _finite_scalar(scalars["dt"], "dt", dtype, positive=True)
+    if steps is not None:
+        shape = jnp.broadcast_shapes(x0.shape, v0.shape, target.shape)
+        target = jnp.broadcast_to(target, (steps,) + shape)
 
     def step(state, goal):
         x, v = state
@@ -332,7 +402,10 @@ def simulate_springs(
     steps = static_int(steps, "steps", minimum=1, maximum=MAX_STEPS)
     position, velocity = common_float(position, velocity, names=("position", "velocity"))
     n, d = position.shape[0], check_last_dim(position, "position", (1, 2, 3))
-    check_shape(velocity, "velocity", position.shape)
+    if velocity.shape != position.shape:
+        raise ValueError(
+            f"`velocity` must have the shape of `position` {position.shape}, got {velocity.shape}"
+        )
     _check_output_size(steps, position.shape)
     position, velocity = check_finite(position, "position"), check_finite(velocity, "velocity")
     springs = _spring_pairs(springs, n)
@@ -359,7 +432,12 @@ def simulate_springs(
 def _spring_pairs(springs, n: int) -> jax.Array:
     if springs is None:
         raise TypeError("`springs` must be integer pairs (E, 2), got None")
-    springs = jnp.asarray(springs)
+    if isinstance(springs, str | bytes):
+        raise TypeError(f"`springs` must be integer pairs (E, 2), got {springs!r:.40}")
+    try:
+        springs = jnp.asarray(springs)
+    except (TypeError, ValueError) as err:
+        raise TypeError(f"`springs` must be integer pairs (E, 2) ({err})") from None
     if springs.ndim != 2 or springs.shape[1] != 2 or not jnp.issubdtype(springs.dtype, jnp.integer):
         raise ValueError(
             f"`springs` must be integer pairs (E, 2), got {springs.shape} {springs.dtype}"

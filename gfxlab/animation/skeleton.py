@@ -28,14 +28,17 @@ from jaxtyping import Array, Float
 from .. import transforms as tf
 from .._checks import (
     as_float,
+    check_finite,
     check_last_dim,
     check_shape,
-    common_float,
+    checked_jit,
     finite_float,
+    is_traced,
+    static_int,
     value_error_if,
 )
 from ..fit import FitResult, fit
-from .quaternions import quat_from_rotvec, quat_to_matrix
+from .quaternions import _exp
 
 __all__ = [
     "Skeleton",
@@ -48,7 +51,23 @@ __all__ = [
     "limit_angles",
     "solve_ik",
     "IKResult",
+    "MAX_JOINTS",
 ]
+
+#: The most joints `chain` builds (forward kinematics unrolls the tree's depth).
+MAX_JOINTS = 1024
+
+
+def _parents(parents) -> tuple[int, ...]:
+    if parents is None or isinstance(parents, str | bytes):
+        raise TypeError(f"`parents` must be a sequence of joint indices, got {parents!r:.40}")
+    try:
+        items = list(parents)
+    except TypeError:
+        raise TypeError(
+            f"`parents` must be a sequence of joint indices, got {parents!r:.40}"
+        ) from None
+    return tuple(static_int(p, f"parents[{i}]") for i, p in enumerate(items))
 
 
 class Skeleton(eqx.Module):
@@ -62,7 +81,7 @@ class Skeleton(eqx.Module):
       frame in its parent's frame.
     """
 
-    parents: tuple[int, ...] = eqx.field(static=True, converter=lambda p: tuple(int(i) for i in p))
+    parents: tuple[int, ...] = eqx.field(static=True, converter=lambda p: _parents(p))
     rest: Float[Array, "J n n"] = eqx.field(converter=lambda r: as_float(r, "rest"))
 
     def __check_init__(self):
@@ -83,6 +102,8 @@ class Skeleton(eqx.Module):
                 f"`rest` must have shape ({j}, 3, 3) (2D) or ({j}, 4, 4) (3D), "
                 f"got {self.rest.shape}"
             )
+        if not is_traced(self.rest):
+            check_finite(self.rest, "rest")
 
     @property
     def num_joints(self) -> int:
@@ -122,32 +143,61 @@ def chain(lengths: Float[Array, " B"], *, dim: int = 2, root=None) -> Skeleton:
     Joint 0 is the root (at `root`, default the origin); joint `j + 1` sits `lengths[j]`
     along its parent's x axis. The last joint is the tip (end effector), so a chain of
     `B` bones has `B + 1` joints.
+
+    **Arguments:** `lengths` `(B,)` finite bone lengths (at most `MAX_JOINTS - 1`
+    bones), `dim` 2 or 3, `root` `(dim,)` finite.
     """
     lengths = as_float(lengths, "lengths")
     if lengths.ndim != 1 or lengths.shape[0] < 1:
         raise ValueError(f"`lengths` must be a 1D array of bone lengths, got {lengths.shape}")
-    if dim not in (2, 3):
+    if lengths.shape[0] >= MAX_JOINTS:
+        raise ValueError(f"`lengths` must hold at most {MAX_JOINTS - 1} bones (MAX_JOINTS)")
+    if isinstance(dim, bool) or dim not in (2, 3):
         raise ValueError(f"`dim` must be 2 or 3, got {dim!r}")
-    zeros = jnp.zeros_like(lengths)
-    offsets = jnp.stack([lengths, zeros] + ([zeros] if dim == 3 else []), axis=-1)
     root = jnp.zeros(dim, lengths.dtype) if root is None else as_float(root, "root")
     check_shape(root, "root", (dim,))
-    rest = tf.translate(jnp.concatenate([root[None].astype(lengths.dtype), offsets]))
-    return Skeleton(tuple(range(-1, lengths.shape[0])), rest)
+    return Skeleton(tuple(range(-1, lengths.shape[0])), _chain_kernel(lengths, root))
+
+
+@checked_jit
+def _chain_kernel(lengths, root):
+    lengths = check_finite(lengths, "lengths")
+    root = check_finite(root.astype(lengths.dtype), "root")
+    zeros = jnp.zeros_like(lengths)
+    offsets = jnp.stack([lengths, zeros] + ([zeros] if root.shape[0] == 3 else []), axis=-1)
+    return tf.translate(jnp.concatenate([root[None], offsets]))
 
 
 def pose_2d(angles: Float[Array, "*batch J"]) -> Float[Array, "*batch J 3 3"]:
-    """Local 2D joint rotations (3x3) from one angle per joint (counter-clockwise)."""
-    return tf.rotate(as_float(angles, "angles"))
+    """Local 2D joint rotations (3x3) from one finite angle per joint (counter-clockwise)."""
+    return _pose_2d_kernel(as_float(angles, "angles"))
+
+
+@checked_jit
+def _pose_2d_kernel(angles):
+    return tf.rotate(check_finite(angles, "angles"))
 
 
 def pose_3d(rotations: Float[Array, "*batch J k"]) -> Float[Array, "*batch J 4 4"]:
-    """Local 3D joint rotations (4x4) from quaternions `(..., 4)` or rotation vectors
-    `(..., 3)` (axis times angle)."""
+    """Local 3D joint rotations (4x4) from quaternions `(..., 4)` (non-zero) or rotation
+    vectors `(..., 3)` (axis times angle)."""
     rotations = as_float(rotations, "rotations")
-    k = check_last_dim(rotations, "rotations", (3, 4), "rotation vectors or quaternions")
-    q = quat_from_rotvec(rotations) if k == 3 else rotations
-    return tf.linear(quat_to_matrix(q))
+    check_last_dim(rotations, "rotations", (3, 4), "rotation vectors or quaternions")
+    return _pose_3d_kernel(rotations)
+
+
+@checked_jit
+def _pose_3d_kernel(rotations):
+    rotations = check_finite(rotations, "rotations")
+    if rotations.shape[-1] == 3:
+        q = _exp(0.5 * rotations)
+    else:
+        q = value_error_if(
+            rotations,
+            jnp.all(rotations == 0, axis=-1),
+            "`rotations` quaternions must be non-zero",
+        )
+    return tf.linear(tf.rotation_from_quaternion(q))
 
 
 def _check_pose(skeleton, pose):
@@ -172,18 +222,30 @@ def forward_kinematics(
     **Arguments:**
 
     - `skeleton`: the `Skeleton`.
-    - `pose`: `(..., J, n, n)` local joint transforms (`pose_2d`, `pose_3d`); `None`
-      for the rest pose.
+    - `pose`: `(..., J, n, n)` finite local joint transforms (`pose_2d`, `pose_3d`);
+      `None` for the rest pose.
 
     **Returns:** `(..., J, n, n)` joint-to-world transforms.
     """
+    _check_skeleton(skeleton)
     pose = _check_pose(skeleton, pose)
-    rest, pose = common_float(skeleton.rest, pose, names=("skeleton.rest", "pose"))
-    return _fk_kernel(rest, pose, parents=skeleton.parents)
+    return _fk_kernel(skeleton.rest, pose, parents=skeleton.parents)
 
 
-@functools.partial(jax.jit, static_argnames=("parents",))
+def _check_skeleton(skeleton) -> None:
+    if not isinstance(skeleton, Skeleton):
+        raise TypeError(f"`skeleton` must be a Skeleton, got {type(skeleton).__name__}")
+
+
+@functools.partial(checked_jit, static_argnames=("parents",))
 def _fk_kernel(rest, pose, *, parents):
+    dtype = jnp.result_type(rest, pose)
+    rest = check_finite(rest.astype(dtype), "skeleton.rest")
+    return _fk(rest, check_finite(pose.astype(dtype), "pose"), parents)
+
+
+def _fk(rest, pose, parents):
+    """The unchecked forward kinematics (`parents` a static tuple)."""
     local = rest @ pose
     depth = 0
     for p in parents:
@@ -206,12 +268,19 @@ def forward_kinematics_loop(
 
     Same result as `forward_kinematics` (tested equal); one pose, no batch.
     """
+    _check_skeleton(skeleton)
     pose = _check_pose(skeleton, pose)
-    rest, pose = common_float(skeleton.rest, pose, names=("skeleton.rest", "pose"))
     if pose.ndim != 3:
         raise ValueError(f"`pose` must be one pose (J, n, n), got shape {pose.shape}")
+    return _fk_loop_kernel(skeleton.rest, pose, jnp.array(skeleton.parents))
+
+
+@checked_jit
+def _fk_loop_kernel(rest, pose, parents):
+    dtype = jnp.result_type(rest, pose)
+    rest = check_finite(rest.astype(dtype), "skeleton.rest")
+    pose = check_finite(pose.astype(dtype), "pose")
     n = rest.shape[-1]
-    parents = jnp.array(skeleton.parents)
 
     def step(glob, inputs):
         j, parent, local = inputs
@@ -219,7 +288,7 @@ def forward_kinematics_loop(
         return glob.at[j].set(parent_glob @ local), None
 
     glob, _ = jax.lax.scan(
-        step, jnp.zeros_like(rest), (jnp.arange(skeleton.num_joints), parents, rest @ pose)
+        step, jnp.zeros_like(rest), (jnp.arange(rest.shape[0]), parents, rest @ pose)
     )
     return glob
 
@@ -228,26 +297,47 @@ def joint_positions(
     skeleton: Skeleton, pose: Float[Array, "*batch J n n"] | None = None
 ) -> Float[Array, "*batch J d"]:
     """World positions of the joints (the translation part of the global transforms)."""
-    glob = forward_kinematics(skeleton, pose)
-    d = skeleton.dim
-    return glob[..., :d, d]
+    _check_skeleton(skeleton)
+    pose = _check_pose(skeleton, pose)
+    return _positions_kernel(skeleton.rest, pose, parents=skeleton.parents)
 
 
-def limit_angles(raw: Float[Array, "*batch"], limits: Float[Array, "*batch 2"] | None):
+@functools.partial(checked_jit, static_argnames=("parents",))
+def _positions_kernel(rest, pose, *, parents):
+    d = rest.shape[-1] - 1
+    return _fk_kernel(rest, pose, parents=parents)[..., :d, d]
+
+
+def limit_angles(
+    raw: Float[Array, "*batch"], limits: Float[Array, "*batch 2"] | None = None
+) -> Float[Array, "*batch"]:
     """Map unconstrained `raw` values into `[low, high]`: `mid + half * sin(raw)`.
 
-    With `limits=None` the angles are `raw` itself. `raw = 0` is the middle of the range.
+    With `limits=None` (free joints) the angles are `raw` itself. `raw = 0` is the
+    middle of the range. Both must be finite, with `high > low`.
     """
     raw = as_float(raw, "raw")
+    if limits is not None:
+        limits = as_float(limits, "limits")
+        check_shape(limits, "limits", (..., 2))
+    return _limit_kernel(raw, limits)
+
+
+@checked_jit
+def _limit_kernel(raw, limits):
+    raw = check_finite(raw, "raw")
     if limits is None:
         return raw
-    limits = as_float(limits, "limits").astype(raw.dtype)
-    check_shape(limits, "limits", (..., 2))
+    limits = check_finite(limits.astype(raw.dtype), "limits")
     limits = value_error_if(
         limits,
         limits[..., 1] <= limits[..., 0],
         "`limits` must be (low, high) pairs with high > low",
     )
+    return _limited(raw, limits)
+
+
+def _limited(raw, limits):
     mid = 0.5 * (limits[..., 0] + limits[..., 1])
     half = 0.5 * (limits[..., 1] - limits[..., 0])
     return mid + half * jnp.sin(raw)
@@ -261,15 +351,43 @@ def _raw_from_angles(angles, limits):
     return jnp.arcsin(jnp.clip((angles - mid) / half, -1.0, 1.0))
 
 
-class IKResult(NamedTuple):
-    """What `solve_ik` returns: the joint `angles` (2D: `(J,)`; 3D: rotation vectors
-    `(J, 3)`), the posed `globals` `(J, n, n)`, the `effector` position reached, and the
-    underlying `FitResult`."""
-
+class _IKFields(NamedTuple):
     angles: jax.Array
     globals: jax.Array
     effector: jax.Array
     fit: FitResult
+
+
+class IKResult(_IKFields):
+    """What `solve_ik` returns: the joint `angles` (2D: `(..., J)`; 3D: rotation vectors
+    `(..., J, 3)`), the posed `globals` `(..., J, n, n)`, the `effector` position reached
+    `(..., n - 1)`, and the underlying `FitResult`. Checked at construction."""
+
+    __slots__ = ()
+
+    def __new__(cls, angles, globals, effector, fit):  # noqa: A002 - the field's name
+        """Check the fields (shapes consistent, finite) and build the tuple."""
+        if not isinstance(fit, FitResult):
+            raise TypeError(f"`fit` must be a gfxlab.fit.FitResult, got {type(fit).__name__}")
+        globals = as_float(globals, "globals")
+        if globals.ndim < 3 or globals.shape[-2:] not in ((3, 3), (4, 4)):
+            raise ValueError(f"`globals` must be (..., J, n, n), n = 3 or 4, got {globals.shape}")
+        n = globals.shape[-1]
+        angles, effector = as_float(angles, "angles"), as_float(effector, "effector")
+        expected = globals.shape[:-2] + (() if n == 3 else (3,))
+        if angles.shape != expected:
+            raise ValueError(
+                f"`angles` must have shape {expected} (one per joint of `globals` "
+                f"{globals.shape}), got {angles.shape}"
+            )
+        if effector.shape != globals.shape[:-3] + (n - 1,):
+            raise ValueError(
+                f"`effector` must have shape {globals.shape[:-3] + (n - 1,)}, got {effector.shape}"
+            )
+        for name, value in (("angles", angles), ("globals", globals), ("effector", effector)):
+            if not is_traced(value):
+                check_finite(value, name)
+        return super().__new__(cls, angles, globals, effector, fit)
 
 
 def _active_joints(skeleton: Skeleton, effector: int, active) -> jax.Array:
@@ -340,6 +458,9 @@ def solve_ik(
     check_shape(target, "target", (..., d))
     j = skeleton.num_joints
     k_shape = (j,) if d == 2 else (j, 3)
+    effector = static_int(effector, "effector")
+    if method is None:
+        raise TypeError("`method` must name a fit method (see gfxlab.fit.fit), got None")
     if not -j <= effector < j:
         raise ValueError(f"`effector` must be a joint index in [-{j}, {j}), got {effector}")
     if limits is not None:
@@ -356,7 +477,8 @@ def solve_ik(
 
     def angles_of(raw_active):
         raw = raw0.at[idx].set(raw_active)
-        return base.at[idx].set(limit_angles(raw, limits)[idx])
+        limited = raw if limits is None else _limited(raw, limits)
+        return base.at[idx].set(limited[idx])
 
     def pose_of(angles):
         return pose_2d(angles) if d == 2 else pose_3d(angles)

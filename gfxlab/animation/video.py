@@ -69,7 +69,7 @@ def _to_uint8_frames(frames) -> np.ndarray:
 
 
 def save_animation(
-    frames, path, *, fps: float = 24, format: str | None = None, quality: int | None = None
+    frames, path, *, fps: float = 24.0, format: str | None = None, quality: int | None = None
 ) -> str:
     """Write frames as a video (or animated GIF).
 
@@ -100,6 +100,12 @@ def save_animation(
         raise TypeError(f"`fps` must be a positive number, got {fps!r}")
     if not (math.isfinite(fps) and fps > 0):
         raise ValueError(f"`fps` must be a positive, finite number, got {fps!r}")
+    if quality is not None and (
+        isinstance(quality, bool)
+        or not isinstance(quality, int | np.integer)
+        or not 1 <= quality <= 10
+    ):
+        raise ValueError(f"`quality` must be None or an int in 1..10, got {quality!r:.40}")
     frames = _to_uint8_frames(frames)
     if format == "gif":
         _save_gif(frames, path, fps)

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import os
 import pathlib
+import re
 
 import equinox as eqx
 import jax
@@ -29,9 +30,12 @@ from jaxtyping import Array, Float, Int
 
 from .. import transforms as tf
 from .._checks import (
+    MAX_ELEMENTS,
     as_float,
+    check_allocation,
     check_finite,
     check_shape,
+    checked_jit,
     safe_norm,
     static_int,
     value_error_if,
@@ -62,10 +66,14 @@ __all__ = [
     "normal_consistency_loss",
     "chamfer_distance",
     "MAX_SUBDIVISIONS",
+    "MAX_SEGMENTS",
 ]
 
 #: Largest `icosphere` subdivision level (20 * 4**7 = 327,680 faces).
 MAX_SUBDIVISIONS = 7
+
+#: Most steps around an axis for `revolve`, `cylinder`, `torus` and `pawn`.
+MAX_SEGMENTS = 1 << 16
 
 #: `data/meshes/` of the repository.
 DATA_DIR = data_folder("meshes")
@@ -79,9 +87,14 @@ def check_faces(faces, num_vertices: int, name: str = "faces") -> jax.Array:
     wrong shape or an index outside `0 <= index < num_vertices` (-1 too), eagerly and
     under `jax.jit` (`equinox.error_if`).
     """
-    if faces is None:
-        raise TypeError(f"`{name}` must be an (F, 3) array of vertex indices, got None")
-    faces = jnp.asarray(faces)
+    _check_label(name)
+    num_vertices = static_int(num_vertices, "num_vertices", minimum=0, maximum=MAX_ELEMENTS)
+    if faces is None or isinstance(faces, str | bytes):
+        raise TypeError(f"`{name}` must be an (F, 3) array of vertex indices, got {faces!r:.40}")
+    try:
+        faces = jnp.asarray(faces)
+    except (TypeError, ValueError) as err:
+        raise TypeError(f"`{name}` must be an (F, 3) array of vertex indices ({err})") from None
     if not jnp.issubdtype(faces.dtype, jnp.integer):
         raise TypeError(f"`{name}` must hold integer vertex indices, got dtype {faces.dtype}")
     check_shape(faces, name, (None, 3))
@@ -95,17 +108,35 @@ def check_faces(faces, num_vertices: int, name: str = "faces") -> jax.Array:
 def check_colors(colors, count: int, name: str = "colors", per: str = "vertex", dtype=None):
     """`colors` as a float `(count, C)` array: one colour per vertex (or per face).
 
-    The one owner of colour validation (`Mesh` and the hidden-surface methods call it).
+    The one owner of color validation (`Mesh` and the hidden-surface methods call it).
+    `per` names what each row belongs to (`"vertex"`, `"face"` or `"triangle"`); NaN
+    and inf are errors.
     """
+    _check_label(name)
+    count = static_int(count, "count", minimum=0, maximum=MAX_ELEMENTS)
+    if per not in _PER:
+        raise ValueError(f"`per` must be one of {_PER}, got {per!r:.40}")
     colors = as_float(colors, name)
     if dtype is not None:
         colors = colors.astype(dtype)
-    if colors.ndim != 2 or colors.shape[0] != count:
+    if colors.ndim != 2 or colors.shape[0] != count or not 1 <= colors.shape[1] <= 4:
         raise ValueError(
-            f"`{name}` must have shape ({count}, C) (one colour per {per}), got shape "
+            f"`{name}` must have shape ({count}, C), C = 1 to 4 (one color per {per}), got shape "
             f"{tuple(colors.shape)}"
         )
-    return colors
+    return check_finite(colors, name)
+
+
+_PER = ("vertex", "face", "triangle")
+_LABEL = re.compile(r"[A-Za-z_][\w.]*(\[\d+\])?")
+
+
+def _check_label(name) -> None:
+    """`name` labels an argument in messages: an identifier such as `uv_faces`."""
+    if not isinstance(name, str):
+        raise TypeError(f"`name` must be an argument name (str), got {name!r:.40}")
+    if not _LABEL.fullmatch(name):
+        raise ValueError(f"`name` must be an argument name such as 'faces', got {name!r:.40}")
 
 
 def _optional_indexed(values, index, name, index_name, width, faces_shape):
@@ -239,12 +270,40 @@ class Mesh(eqx.Module):
 def face_normals(vertices: Float[Array, "V 3"], faces: Int[Array, "F 3"]) -> Float[Array, "F 3"]:
     """Unit outward normals of the faces (zero for degenerate faces, with finite gradients).
 
-    Out-of-range face indices are an error (see `check_faces`).
+    Out-of-range face indices (-1 too) and NaN/inf vertices are errors (see
+    `check_faces`). Called eagerly it is one compiled call.
     """
     vertices = as_float(vertices, "vertices")
     check_shape(vertices, "vertices", (None, 3))
-    tri = vertices[check_faces(faces, vertices.shape[0])]
-    n = jnp.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    return _face_normals_kernel(vertices, _static_faces(faces, vertices))
+
+
+def _static_faces(faces, vertices):
+    """The static part of `check_faces` (type and shape); the range is checked traced."""
+    if faces is None or isinstance(faces, str | bytes):
+        raise TypeError(f"`faces` must be an (F, 3) array of vertex indices, got {faces!r:.40}")
+    faces = jnp.asarray(faces)
+    if not jnp.issubdtype(faces.dtype, jnp.integer):
+        raise TypeError(f"`faces` must hold integer vertex indices, got dtype {faces.dtype}")
+    check_shape(faces, "faces", (None, 3))
+    if vertices.shape[0] == 0 and faces.shape[0] > 0:
+        raise ValueError(f"`vertices` is empty, but `faces` {faces.shape} index vertices")
+    return faces
+
+
+def _checked(vertices, faces):
+    vertices = check_finite(vertices, "vertices")
+    return vertices, check_faces(faces, vertices.shape[0])
+
+
+def _cross_normals(vertices, faces):
+    tri = vertices[faces]
+    return jnp.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+
+
+@checked_jit
+def _face_normals_kernel(vertices, faces):
+    n = _cross_normals(*_checked(vertices, faces))
     length = safe_norm(n, keepdims=True)
     return n / jnp.where(length > 0, length, 1.0)
 
@@ -252,13 +311,18 @@ def face_normals(vertices: Float[Array, "V 3"], faces: Int[Array, "F 3"]) -> Flo
 def vertex_normals(vertices: Float[Array, "V 3"], faces: Int[Array, "F 3"]) -> Float[Array, "V 3"]:
     """Unit vertex normals: the area-weighted mean of the normals of the faces around each.
 
-    Out-of-range face indices are an error (see `check_faces`).
+    Out-of-range face indices (-1 too) and NaN/inf vertices are errors (see
+    `check_faces`). Called eagerly it is one compiled call.
     """
     vertices = as_float(vertices, "vertices")
     check_shape(vertices, "vertices", (None, 3))
-    faces = check_faces(faces, vertices.shape[0])
-    tri = vertices[faces]
-    area_normal = jnp.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # 2 x area x n
+    return _vertex_normals_kernel(vertices, _static_faces(faces, vertices))
+
+
+@checked_jit
+def _vertex_normals_kernel(vertices, faces):
+    vertices, faces = _checked(vertices, faces)
+    area_normal = _cross_normals(vertices, faces)  # 2 x area x n
     summed = jax.ops.segment_sum(
         jnp.repeat(area_normal, 3, axis=0), faces.reshape(-1), num_segments=vertices.shape[0]
     )
@@ -375,10 +439,12 @@ def revolve(profile, segments: int = 24) -> Mesh:
     **Returns:** a `Mesh`, faces counter-clockwise seen from outside when the profile
     runs upwards.
     """
-    segments = static_int(segments, "segments", minimum=3)
-    profile = np.asarray(profile, float)
+    segments = static_int(segments, "segments", minimum=3, maximum=MAX_SEGMENTS)
+    profile = as_float(profile, "profile")
     if profile.ndim != 2 or profile.shape[1] != 2 or len(profile) < 2:
         raise ValueError(f"`profile` must have shape (N >= 2, 2), got {profile.shape}")
+    profile = np.asarray(check_finite(profile, "profile"), float)
+    check_allocation(3 * segments * len(profile), "profile x segments")
     if np.any(profile[:, 0] < 0):
         raise ValueError("`profile` radii must be >= 0")
     angle = 2 * np.pi * np.arange(segments) / segments
@@ -413,7 +479,9 @@ def revolve(profile, segments: int = 24) -> Mesh:
 
 
 def cylinder(radius: float = 1.0, height: float = 2.0, segments: int = 24) -> Mesh:
-    """A closed cylinder about the y axis, centred at the origin."""
+    """A closed cylinder about the y axis, centred at the origin (`segments` at most
+    `MAX_SEGMENTS`)."""
+    segments = static_int(segments, "segments", minimum=3, maximum=MAX_SEGMENTS)
     h = _real(height, "height") / 2
     r = _real(radius, "radius")
     return revolve([[0, -h], [r, -h], [r, h], [0, h]], segments)
@@ -428,8 +496,9 @@ def torus(
     """A torus about the y axis: a tube of `minor_radius` around a circle of `major_radius`."""
     major_radius = _real(major_radius, "major_radius")
     minor_radius = _real(minor_radius, "minor_radius")
-    nu = static_int(major_segments, "major_segments", minimum=3)
-    nv = static_int(minor_segments, "minor_segments", minimum=3)
+    nu = static_int(major_segments, "major_segments", minimum=3, maximum=MAX_SEGMENTS)
+    nv = static_int(minor_segments, "minor_segments", minimum=3, maximum=MAX_SEGMENTS)
+    check_allocation(6 * nu * nv, "major_segments x minor_segments")
     u = 2 * np.pi * np.arange(nu)[:, None] / nu
     v = 2 * np.pi * np.arange(nv)[None, :] / nv
     r = np.broadcast_to(major_radius + minor_radius * np.cos(v), (nu, nv))
@@ -449,7 +518,9 @@ def pawn(segments: int = 32) -> Mesh:
     """A chess pawn (about 2 units tall, base on y = 0), a surface of revolution.
 
     Our own model: base, collar and a round head, free to redistribute with gfxlab.
+    `segments` is at most `MAX_SEGMENTS`.
     """
+    segments = static_int(segments, "segments", minimum=3, maximum=MAX_SEGMENTS)
     body = [
         (0.0, 0.0),
         (0.80, 0.0),

@@ -10,12 +10,16 @@ from .._checks import as_float, check_finite, check_shape, safe_norm, value_erro
 from . import Mesh, check_faces, face_normals
 
 
-def _mesh_arrays(mesh_or_vertices, faces):
-    if isinstance(mesh_or_vertices, Mesh):
-        return mesh_or_vertices.vertices, mesh_or_vertices.faces
-    vertices = as_float(mesh_or_vertices, "vertices")
-    check_shape(vertices, "vertices", (None, 3))
-    return vertices, check_faces(faces, vertices.shape[0])
+def _mesh_arrays(mesh, faces):
+    if isinstance(mesh, Mesh):
+        return mesh.vertices, mesh.faces
+    if mesh is None:
+        raise TypeError("`mesh` must be a Mesh or (V, 3) vertices with `faces`, got None")
+    vertices = as_float(mesh, "mesh")
+    check_shape(vertices, "mesh", (None, 3))
+    if faces is None:
+        raise TypeError("`faces` (F, 3) are required when `mesh` is a (V, 3) vertex array")
+    return check_finite(vertices, "mesh"), check_faces(faces, vertices.shape[0])
 
 
 def _half_edges(faces):
