@@ -97,16 +97,18 @@ def test_noise_properties():
     lattice = jnp.arange(-3.0, 4.0)[:, None]
     assert jnp.all(jnp.abs(A.gradient_noise(lattice)) < 1e-12)
     grid2 = jnp.stack(jnp.meshgrid(jnp.arange(3.0), jnp.arange(3.0)), -1).reshape(-1, 2)
-    assert jnp.all(jnp.abs(A.gradient_noise(grid2, seed=3)) < 1e-12)
+    assert jnp.all(jnp.abs(A.gradient_noise(grid2, key=jax.random.key(3))) < 1e-12)
     x = jnp.linspace(-4, 4, 4001)[:, None]
+    one, two = jax.random.key(1), jax.random.key(2)
     for fn in (A.value_noise, A.gradient_noise):
-        noise = jax.jit(fn, static_argnames="seed")
-        y = noise(x, seed=1)
+        noise = jax.jit(lambda x, key, fn=fn: fn(x, key=key))  # the key is traced
+        y = noise(x, one)
         assert jnp.all(jnp.abs(y) <= 1.0) and y.std() > 0.05
         # smooth: differences shrink with the step (Lipschitz with a modest constant)
         assert jnp.max(jnp.abs(jnp.diff(y))) < 0.01
-        assert not jnp.allclose(y, noise(x, seed=2))
-        g = jax.jit(jax.vmap(jax.grad(lambda s, fn=fn: fn(s[None], seed=1))))(x[:, 0])
+        assert not jnp.allclose(y, noise(x, two))
+        grad = jax.grad(lambda s, key, fn=fn: fn(s[None], key=key))
+        g = jax.jit(jax.vmap(grad, in_axes=(0, None)))(x[:, 0], one)
         assert jnp.all(jnp.isfinite(g))
     # value noise at lattice points is the lattice value, and between neighbours it stays
     # in their range (the fade blend is monotone)

@@ -66,6 +66,8 @@ SKIP = {  # not functions of data: files, processes, CLIs and teaching drivers
     "grading.*", "exam.*", "fit.FitResult", "image.read_image", "image.write_image",
     "image.image_info", "mesh.read_obj", "mesh.write_obj", "animation.write_video",
     "animation.read_video", "animation.container_info", "jpeg.read_jpeg", "jpeg.write_jpeg",
+    "animation.save_animation",  # writes files
+    "animation.ContainerInfo", "animation.Node",  # result records, like fit.FitResult
 }  # fmt: skip
 
 # Valid values for parameters the guesses below get wrong, per `module.function`.

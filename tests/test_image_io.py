@@ -171,7 +171,7 @@ def test_image_info_against_headers(tmp_path):
     info = gi.image_info(gif)
     assert raw[:6] in (b"GIF87a", b"GIF89a") and info["compression"] == "LZW"
     assert (info["width"], info["height"]) == struct.unpack("<HH", raw[6:10])
-    assert info["mode"] == "P" and 12 <= info["palette_colours"] <= 256
+    assert info["mode"] == "P" and 12 <= info["palette_colors"] <= 256
     assert info["bits_per_pixel"] == 8 and info["lossless"]
 
     jpg = gi.write_image(tmp_path / "e.jpg", image, quality=80)

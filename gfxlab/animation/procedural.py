@@ -18,6 +18,7 @@ from jaxtyping import Array, Bool, Float, Int
 from .._checks import (
     as_float,
     check_finite,
+    check_key,
     check_last_dim,
     check_shape,
     checked_jit,
@@ -83,14 +84,6 @@ def _direction(v, name: str):
     return safe_normalize(v)
 
 
-def _check_key(key) -> None:
-    if not isinstance(key, jax.Array) or not (
-        jax.dtypes.issubdtype(key.dtype, jax.dtypes.prng_key)
-        or (key.dtype == jnp.uint32 and key.shape == (2,))
-    ):
-        raise TypeError(f"`key` must be a jax.random key (jax.random.key(0)), got {key!r:.60}")
-
-
 def _float_field(name: str):
     def convert(x):
         return x if is_traced(x) else as_float(x, name)
@@ -151,7 +144,7 @@ def emit(
 
     **Returns:** `Particles`.
     """
-    _check_key(key)
+    check_key(key)
     count = static_int(count, "count", minimum=1, maximum=MAX_PARTICLES)
     origin, direction = as_float(origin, "origin"), as_float(direction, "direction")
     d = check_last_dim(origin, "origin", (2, 3), "a 2D or 3D point")

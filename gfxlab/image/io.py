@@ -302,7 +302,7 @@ def image_info(path: str | os.PathLike) -> dict:
     - `format` (`"PNG"`, `"JPEG"`, ...), `width`, `height`, `mode` (Pillow's mode, e.g.
       `"RGB"`, `"P"` for palette, `"L"` for grey), `channels`,
     - `bit_depth` (bits per sample), `bits_per_pixel` (the colour depth; for a palette
-      image the bits of an index), `palette_colours` (entries in the palette, 0 if none),
+      image the bits of an index), `palette_colors` (entries in the palette, 0 if none),
     - `compression` (e.g. `"deflate"`, `"LZW"`, `"DCT baseline"`, `"raw"`, `"tiff_lzw"`),
       `lossless` (`False` only for JPEG data),
     - `transparency` (alpha channel or a transparent palette entry), `frames`, `animated`,
@@ -321,10 +321,10 @@ def image_info(path: str | os.PathLike) -> dict:
         frames = int(getattr(im, "n_frames", 1))
         info = dict(im.info)
         bands = len(im.getbands())
-        palette_colours = 0
+        palette_colors = 0
         if mode in ("P", "PA") and im.palette is not None:
             colors = im.getpalette() or []
-            palette_colours = len(colors) // 3
+            palette_colors = len(colors) // 3
         if fmt == "JPEG":
             compression = "DCT progressive" if info.get("progressive") else "DCT baseline"
         elif fmt == "PNG":
@@ -354,7 +354,7 @@ def image_info(path: str | os.PathLike) -> dict:
         "channels": channels,
         "bit_depth": bit_depth,
         "bits_per_pixel": bits_per_pixel,
-        "palette_colours": palette_colours,
+        "palette_colors": palette_colors,
         "compression": compression,
         "lossless": bool(lossless),
         "transparency": bool(transparency),
