@@ -29,6 +29,7 @@ from ._checks import (
     static_shape,
     value_error_if,
 )
+from ._rotations import _rotation_matrix
 
 __all__ = [
     "look_at",
@@ -333,7 +334,7 @@ class Camera(eqx.Module):
             self.eye, self.target, self.up = _checked_pose(eye, target, up)
             return
         self.rotation = finite_float(rotation, "rotation")
-        frame = tf._rotation_matrix(self.rotation, representation, "rotation")
+        frame = _rotation_matrix(self.rotation, representation, "rotation")
         frame = frame.astype(eye.dtype)
         self.eye, self.target, self.up = eye, eye - frame[..., :, 2], frame[..., :, 1]
 
@@ -351,7 +352,7 @@ class Camera(eqx.Module):
         """World to eye space (`look_at`, or the inverse of the rotation's frame)."""
         if self.rotation is None:
             return look_at(self.eye, self.target, self.up)
-        frame = tf._rotation_matrix(self.rotation, self.representation, "rotation")
+        frame = _rotation_matrix(self.rotation, self.representation, "rotation")
         to_eye = jnp.swapaxes(frame, -1, -2)
         eye = finite_float(self.eye, "eye")
         return tf._embed(to_eye, -jnp.einsum("...ij,...j->...i", to_eye, eye))

@@ -74,7 +74,7 @@ SKIP = {  # not functions of data: files, processes, CLIs and teaching drivers
 BASELINES = {
     "transforms.rotate_axis": {"axis": [0.0, 0.0, 1.0], "angle": 0.5},
     "transforms.scale": {"factors": [2.0, 3.0]},
-    "transforms.reflect": {"normal": [0.0, 1.0]},
+    "transforms.reflection": {"normal": [0.0, 1.0]},
     "transforms.linear": {"matrix": [[1.0, 2.0], [0.0, 1.0]]},
     "transforms.compose": {"matrices": [[1.0, 0, 0], [0, 1, 0], [0, 0, 1]]},
     "transforms.apply": {"matrix": [[1.0, 0, 1], [0, 1, 0], [0, 0, 1]], "points": [[1.0, 2.0]]},

@@ -116,13 +116,15 @@ def test_seed_q2f_shear_of_unit_cube_row_vector_form():
 
 def test_reflect():
     np.testing.assert_allclose(
-        tf.apply(tf.reflect(jnp.array([0.0, 1.0])), jnp.array([[2.0, 3.0]])), [[2, -3]]
+        tf.apply(tf.reflection(jnp.array([0.0, 1.0])), jnp.array([[2.0, 3.0]])), [[2, -3]]
     )
     np.testing.assert_allclose(
-        tf.apply(tf.reflect(jnp.array([1.0, -1.0])), jnp.array([[2.0, 3.0]])), [[3, 2]], atol=1e-15
+        tf.apply(tf.reflection(jnp.array([1.0, -1.0])), jnp.array([[2.0, 3.0]])),
+        [[3, 2]],
+        atol=1e-15,
     )
     # Mirror about the plane z = 1.
-    m = tf.reflect(jnp.array([0.0, 0.0, 2.0]), point=jnp.array([5.0, 5.0, 1.0]))
+    m = tf.reflection(jnp.array([0.0, 0.0, 2.0]), point=jnp.array([5.0, 5.0, 1.0]))
     np.testing.assert_allclose(tf.apply(m, jnp.array([[1.0, 2.0, 4.0]])), [[1, 2, -2]])
     np.testing.assert_allclose(m @ m, np.eye(4), atol=1e-15)
 
@@ -204,7 +206,7 @@ GRADIENT_CASES = {
     "shear": (lambda k: tf.shear(xy=k, zx=k), (0.5,)),
     "linear": (tf.linear, (jnp.eye(3) * 2,)),
     "reflect": (
-        lambda n, q: tf.reflect(n, point=q),
+        lambda n, q: tf.reflection(n, point=q),
         (jnp.array([1.0, 2.0]), jnp.array([0.5, 0.0])),
     ),
     "compose": (lambda a, b: tf.compose(tf.rotate(a), tf.rotate(b)), (0.1, 0.2)),
@@ -237,8 +239,8 @@ def test_degenerate_rotation_axis_gradient_is_finite():
         (lambda: tf.rotate_axis(jnp.zeros(3), 1.0), "non-zero"),
         (lambda: tf.scale(jnp.ones(5)), "factors"),
         (lambda: tf.scale(jnp.ones(2), center=jnp.ones(3)), "center"),
-        (lambda: tf.reflect(jnp.zeros(2)), "non-zero"),
-        (lambda: tf.reflect(jnp.ones(2), point=jnp.ones(3)), "point"),
+        (lambda: tf.reflection(jnp.zeros(2)), "non-zero"),
+        (lambda: tf.reflection(jnp.ones(2), point=jnp.ones(3)), "point"),
         (lambda: tf.linear(jnp.ones((2, 3))), "matrix"),
         (lambda: tf.compose(), "at least one"),
         (lambda: tf.compose(tf.rotate(1.0), tf.rotate_x(1.0)), "2D and 3D"),
@@ -407,8 +409,12 @@ def test_round_trip_jacobian_is_the_identity_at_zero_angle():
         (lambda: tf.scale([1.0, 1.0], center=[0, jnp.inf]), ValueError, "`center` must be finite"),
         (lambda: tf.shear(xy=jnp.nan), ValueError, "`xy` must be finite"),
         (lambda: tf.linear(jnp.full((2, 2), jnp.inf)), ValueError, "`matrix` must be finite"),
-        (lambda: tf.reflect([0.0, jnp.nan]), ValueError, "`normal` must be finite"),
-        (lambda: tf.reflect([0.0, 1.0], point=[jnp.nan, 0]), ValueError, "`point` must be finite"),
+        (lambda: tf.reflection([0.0, jnp.nan]), ValueError, "`normal` must be finite"),
+        (
+            lambda: tf.reflection([0.0, 1.0], point=[jnp.nan, 0]),
+            ValueError,
+            "`point` must be finite",
+        ),
         (
             lambda: tf.compose(jnp.eye(3), jnp.full((3, 3), jnp.nan)),
             ValueError,
