@@ -17,9 +17,12 @@ import dataclasses
 import importlib
 import io
 import json
+import multiprocessing
 import os
 import pathlib
+import signal
 import stat
+import threading
 import time
 import traceback
 
@@ -41,22 +44,119 @@ __all__ = [
 ]
 
 MAX_NOTEBOOK_BYTES = 16 * 2**20
+# CPU seconds the grader itself may spend in one test (its own checks on the student's
+# data; time waiting for the student process does not count): config `test_cpu_seconds`.
+TEST_CPU_SECONDS = 20.0
+
+
+class _TestTimedOut(BaseException):
+    """A test used more than its CPU seconds in the grader (a `BaseException`, so that a
+    test's own `except Exception` does not swallow it)."""
+
+
+class _CpuDeadline:
+    """A per-test CPU deadline (`ITIMER_PROF`) in the grader's main thread.
+
+    The signal never interrupts an RPC to the student process (that would leave the
+    session mid-message): it is held until the call returns.
+    """
+
+    def __init__(self, seconds: float):
+        self.seconds, self.in_rpc, self.pending = float(seconds), 0, False
+        self.active = False
+
+    def _handler(self, signum, frame):
+        if self.in_rpc:
+            self.pending = True
+        else:
+            raise _TestTimedOut
+
+    def __enter__(self):
+        usable = self.seconds > 0 and threading.current_thread() is threading.main_thread()
+        if usable:
+            self.old = signal.signal(signal.SIGPROF, self._handler)
+            signal.setitimer(signal.ITIMER_PROF, self.seconds)
+            self.active = True
+        return self
+
+    def __exit__(self, *exc):
+        if self.active:
+            signal.setitimer(signal.ITIMER_PROF, 0)
+            signal.signal(signal.SIGPROF, self.old)
+            self.active = False
+        return False
+
+    def rpc_done(self):
+        """After a call: raise the deadline held during it."""
+        if self.pending and self.active and not self.in_rpc:
+            self.pending = False
+            raise _TestTimedOut
+
+
+_NO_DEADLINE = _CpuDeadline(0)
+
+# Beyond the submission's own budget: the grader's start-up and result writing.
+HARD_MARGIN_SECONDS = 30.0
+
+
+def _bounded_child(work, conn):
+    try:
+        conn.send(("ok", work()))
+    except BaseException as exc:  # noqa: BLE001 - reported to the parent, which decides
+        try:
+            conn.send(("raise", exc))
+        except Exception:  # an exception that does not pickle
+            conn.send(("raise", RuntimeError(_bounded(repr(exc), 2000))))
+    finally:
+        conn.close()
+        os._exit(0)
+
+
+def run_bounded(work, seconds: float):
+    """Run `work()` in a forked child killed after `seconds` wall seconds, whatever it does.
+
+    Returns `("ok", result)`, `("raise", exception)`, `("timeout", None)` or
+    `("died", None)`. Grading one submission (`grade NB`, Gradescope's `run_autograder`)
+    goes through it, as a batch's grader processes are bounded by `grade_many`.
+    """
+    context = multiprocessing.get_context("fork")
+    receive, send = context.Pipe(duplex=False)
+    proc = context.Process(target=_bounded_child, args=(work, send), daemon=True)
+    proc.start()
+    send.close()
+    try:
+        outcome = receive.recv() if receive.poll(seconds) else ("timeout", None)
+    except (EOFError, OSError):
+        outcome = ("died", None)
+    finally:
+        if proc.is_alive():
+            proc.kill()
+        proc.join()
+        receive.close()
+    return outcome
 
 
 class StudentFunction:
     """Proxy for a function in the student process; calling it is an RPC."""
 
-    def __init__(self, session: StudentSession, name: str, transforms: tuple = ()):
+    def __init__(self, session: StudentSession, name: str, transforms: tuple = (), deadline=None):
         self._session, self.name, self.transforms = session, name, transforms
+        self._deadline = deadline or _NO_DEADLINE
 
     def __call__(self, *args, **kwargs):
         """Call the function in the student process (arguments and result are plain data)."""
-        return self._session.call(self.name, self.transforms, args, kwargs)
+        self._deadline.in_rpc += 1
+        try:
+            return self._session.call(self.name, self.transforms, args, kwargs)
+        finally:
+            self._deadline.in_rpc -= 1
+            self._deadline.rpc_done()
 
     def transformed(self, op: str, **options) -> StudentFunction:
         """This function with the transform `op` (e.g. `grad`) applied in the student process."""
         options = {k: tuple(v) if isinstance(v, list) else v for k, v in options.items()}
-        return StudentFunction(self._session, self.name, (*self.transforms, (op, options)))
+        chain = (*self.transforms, (op, options))
+        return StudentFunction(self._session, self.name, chain, self._deadline)
 
     def __repr__(self):
         chain = "".join(f"{op}(" for op, _ in reversed(self.transforms))
@@ -331,6 +431,12 @@ class Autograder:
         values = {**self.config.get("limits", {}), **(overrides or {})}
         return dataclasses.replace(Limits(), **values)
 
+    def hard_limit(self, limits=None) -> float:
+        """Wall seconds after which grading one submission is stopped, whatever happens:
+        its budget (twice, for a second sandbox with `separate` rules) plus a margin."""
+        budgets = 2 if self.config.get("separate") else 1
+        return budgets * self.limits(limits).budget_seconds + HARD_MARGIN_SECONDS
+
     def _sandbox_options(self) -> dict:
         return dict(
             preload=tuple(self.config.get("preload", ["numpy"])),
@@ -445,15 +551,26 @@ class Autograder:
                 continue
             if spec.hidden:  # from now on, replays show no student text (see _ensure)
                 session.hidden_started = True
-            proxies = [StudentFunction(session, rename.get(p, p)) for p in spec.params]
-            try:
-                namespace[spec.name](*proxies)
-            except Exception as exc:  # a failing test, whatever the reason
-                message = _failure_message(exc, spec.hidden)
-                out.append(TestResult(spec.name, spec.hidden, False, spec.weight, message))
-            else:
-                out.append(TestResult(spec.name, spec.hidden, True, spec.weight))
+            out.append(self._run_test(namespace[spec.name], spec, session, rename))
         return QuestionResult(question.name, question.points, out)
+
+    def _run_test(self, test, spec, session, rename) -> TestResult:
+        """One test under the grader's CPU deadline: a test the student's data makes slow
+        here (e.g. colliding hashes in the test's own sets) fails as "timed out"."""
+        seconds = float(self.config.get("test_cpu_seconds", TEST_CPU_SECONDS))
+        try:
+            with _CpuDeadline(seconds) as deadline:
+                proxies = [
+                    StudentFunction(session, rename.get(p, p), (), deadline) for p in spec.params
+                ]
+                test(*proxies)
+        except _TestTimedOut:
+            message = f"timed out: the test's checks of your result took over {seconds:g} s"
+            return TestResult(spec.name, spec.hidden, False, spec.weight, message)
+        except Exception as exc:  # a failing test, whatever the reason
+            message = _failure_message(exc, spec.hidden)
+            return TestResult(spec.name, spec.hidden, False, spec.weight, message)
+        return TestResult(spec.name, spec.hidden, True, spec.weight)
 
     def empty_result(self, label: str, note: str, error: str | None = None) -> GradeResult:
         """Zero on every question, with the reason (unreadable notebook, grader failure)."""
@@ -487,3 +604,36 @@ class Autograder:
         except Exception as exc:  # unreadable notebook: zero, with the reason
             return self.empty_result(label, f"could not read the notebook: {_bounded(exc, 300)}")
         return self.grade_cells(cells, label=label, numbers=numbers, **kwargs)
+
+
+def grade_one(directory, submission, *, limits=None) -> GradeResult:
+    """Grade one notebook with the autograder in `directory`, in a child process killed at
+    the hard limit (`Autograder.hard_limit`): a submission whose data makes the grader's
+    own code slow gets a bounded grader-error result, never a grader that runs forever.
+
+    The child starts its sandbox while the tests load (as `Autograder(warm=True)`).
+    `IsolationUnavailable` and other grader failures in the child are raised here.
+    """
+    grader = Autograder(directory)
+    label = _bounded(pathlib.Path(submission).name, 200)
+
+    def work():
+        child = Autograder(directory, warm=True, limits=limits)
+        child.warm = False
+        try:
+            return child.grade(submission, limits=limits)
+        finally:
+            child.close()
+
+    seconds = grader.hard_limit(limits)
+    kind, value = run_bounded(work, seconds)
+    if kind == "ok":
+        return value
+    if kind == "raise":
+        raise value
+    reason = (
+        f"grading took longer than {seconds:g} s and was stopped"
+        if kind == "timeout"
+        else "the grader process died"
+    )
+    return grader.empty_result(label, "", f"grader error: {reason}")

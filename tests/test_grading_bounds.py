@@ -1,0 +1,89 @@
+"""The grader's own bounds on what a submission's data can make it do (red team 2)."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from gfxlab.grading import authoring
+from gfxlab.grading.grader import Autograder, run_bounded
+
+
+class _FakeSession:
+    """Stands in for a student process: `call` returns `reply` after `spin` CPU seconds."""
+
+    def __init__(self, reply, spin=0.0):
+        self.reply, self.spin, self.calls = reply, spin, 0
+
+    def call(self, name, transforms, args, kwargs):
+        end = time.process_time() + self.spin
+        while time.process_time() < end:
+            pass
+        self.calls += 1
+        return self.reply
+
+
+def _grader(seconds):
+    grader = Autograder.without_tests(".", assignment="a", preload=(), forbid=())
+    grader.config["test_cpu_seconds"] = seconds
+    return grader
+
+
+def _colliding_pairs(n):
+    # Multiples of 2**61 - 1 all hash to 0: (x, 0) tuples that collide.
+    return [(k * (2**61 - 1), 0) for k in range(1, n)]
+
+
+SPEC = authoring.TestSpec("test_points_unique", ("circle_points",), False, 1.0)
+
+
+def test_a_test_slow_on_the_students_data_times_out_and_scores_zero():
+    def test_points_unique(circle_points):
+        pts = circle_points(5)
+        try:  # a test's own `except Exception` does not swallow the deadline
+            seen = set()
+            while True:  # the grader's own check never ends on this data
+                seen |= {tuple(p) for p in pts}
+        except Exception:
+            pass
+
+    started = time.monotonic()
+    result = _grader(0.5)._run_test(
+        test_points_unique, SPEC, _FakeSession(_colliding_pairs(2000)), {}
+    )
+    assert not result.passed and result.message.startswith("timed out")
+    assert time.monotonic() - started < 20
+
+
+def test_the_deadline_waits_for_a_call_to_the_student_to_finish():
+    session = _FakeSession([1, 2], spin=1.0)  # the deadline passes during the call
+
+    def test_points_unique(circle_points):
+        assert circle_points(5) == [1, 2]
+
+    result = _grader(0.2)._run_test(test_points_unique, SPEC, session, {})
+    assert session.calls == 1  # the call was not interrupted mid-message
+    assert not result.passed and result.message.startswith("timed out")
+    fast = _grader(5.0)._run_test(test_points_unique, SPEC, _FakeSession([1, 2]), {})
+    assert fast.passed and fast.message == ""
+
+
+def _spin_forever():
+    while True:
+        pass
+
+
+def _fails():
+    raise ValueError("no sandbox here")
+
+
+def test_run_bounded_kills_at_the_hard_limit():
+    started = time.monotonic()
+    assert run_bounded(_spin_forever, 1.0) == ("timeout", None)
+    assert time.monotonic() - started < 15
+    assert run_bounded(lambda: {"score": 3}, 30.0) == ("ok", {"score": 3})
+    kind, exc = run_bounded(_fails, 30.0)
+    assert kind == "raise" and isinstance(exc, ValueError)
+    with pytest.raises(ValueError, match="no sandbox"):
+        raise exc
