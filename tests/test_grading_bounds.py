@@ -87,3 +87,13 @@ def test_run_bounded_kills_at_the_hard_limit():
     assert kind == "raise" and isinstance(exc, ValueError)
     with pytest.raises(ValueError, match="no sandbox"):
         raise exc
+
+
+def test_codec_bounds_values_before_parsing():
+    from gfxlab.grading import codec
+
+    bomb = b"[" + b",".join([b"[]"] * (codec.MAX_ITEMS + 1)) + b"]"  # 6 MB, small frame
+    assert len(bomb) < codec.MAX_MESSAGE_BYTES
+    with pytest.raises(codec.WireError, match="more than"):
+        codec.loads(bomb)
+    assert codec.loads(b'{"a":[1,2,[3]],"b":"x,y[{"}') == {"a": [1, 2, [3]], "b": "x,y[{"}
