@@ -97,3 +97,25 @@ def test_codec_bounds_values_before_parsing():
     with pytest.raises(codec.WireError, match="more than"):
         codec.loads(bomb)
     assert codec.loads(b'{"a":[1,2,[3]],"b":"x,y[{"}') == {"a": [1, 2, [3]], "b": "x,y[{"}
+
+
+def test_magics_are_commented_only_at_the_start_of_a_logical_line():
+    from gfxlab.grading.authoring import comment_magics
+
+    src = (
+        "%matplotlib inline\n"
+        "  !pip install x\n"
+        "odd = (\n    n\n    % 2\n    == 1\n)\n"
+        "y = 3 \\\n    % 2\n"
+        'z = """\n!not a shell line\n"""\n'
+        "w = 1  # a comment ending in \\\n"
+        "%time w\n"
+        "s = '(' \n!ls\n"
+    )
+    out = comment_magics(src).splitlines()
+    assert out[0] == "# %matplotlib inline" and out[1] == "  # !pip install x"
+    assert out[4] == "    % 2" and out[8] == "    % 2" and out[10] == "!not a shell line"
+    assert out[13] == "# %time w" and out[15] == "# !ls"
+    namespace = {"n": 5}
+    exec("\n".join(out), namespace)
+    assert namespace["odd"] is True and namespace["y"] == 1 and "!not" in namespace["z"]
