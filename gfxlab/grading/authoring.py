@@ -487,9 +487,12 @@ def _forbid_cell(config: dict) -> dict | None:
         text += (
             f"\n\n**Write `{function}` on its own:** it may not call {names}, nor share "
             "their helper functions or values; a test that passes only with them scores 0 "
-            "(the grader runs it again with them removed). Such a notebook may not use "
-            "`exec`, `eval`, `globals`, `getattr` or modules such as `sys` and `inspect` "
-            "either: the question would score 0."
+            "(the grader runs it again with them removed). Code the grader cannot read "
+            "scores 0 on such a question: `exec`, `eval`, `compile`, `__import__`, the "
+            "modules `importlib`, `types`, `pickle`, `marshal`, `runpy`, `site`, `ctypes`, "
+            "and importing modules the notebook writes (`.py` files) or puts on the path; "
+            "so do name lookups (`globals`, `vars`, `getattr`, `sys`, `gc`, `inspect`, "
+            "frames, dunder attributes) inside the functions it may not use."
         )
     return new_cell("markdown", text.strip())
 
