@@ -119,3 +119,36 @@ def test_magics_are_commented_only_at_the_start_of_a_logical_line():
     namespace = {"n": 5}
     exec("\n".join(out), namespace)
     assert namespace["odd"] is True and namespace["y"] == 1 and "!not" in namespace["z"]
+
+
+def test_grade_one_is_stopped_at_the_hard_limit(tmp_path, monkeypatch):
+    import json
+
+    from gfxlab.grading import grader as grader_module
+
+    config = {"assignment": "a", "questions": [], "limits": {"budget_seconds": 1.0}}
+    (tmp_path / "config.json").write_text(json.dumps(config))
+    monkeypatch.setattr(grader_module, "HARD_MARGIN_SECONDS", 0.5)
+    monkeypatch.setattr(Autograder, "_launch_spare", lambda self, limits: None)
+    monkeypatch.setattr(Autograder, "grade", lambda self, submission, **kw: _spin_forever())
+    started = time.monotonic()
+    result = grader_module.grade_one(tmp_path, tmp_path / "x.ipynb")
+    assert "longer than 1.5 s and was stopped" in result.error
+    assert result.to_gradescope()["extra_data"]["grading_error"] is True
+    assert time.monotonic() - started < 20
+
+
+def test_assignments_forbid_ready_made_solvers():
+    import json
+    import pathlib
+
+    root = pathlib.Path(__file__).resolve().parents[1] / "labs" / "assignments"
+    needed = {  # red team 2 #5, #6, #10: libraries that answer the questions
+        "01_midpoint_circle": {"skimage", "cv2", "PIL", "matplotlib"},
+        "02_cohen_sutherland": {"shapely", "matplotlib", "cv2", "skimage"},
+        "03_bezier": {"bezier", "scipy.interpolate", "matplotlib"},
+        "04_jpeg_block": {"scipy.fft", "cv2", "jpeglib", "PIL"},
+    }
+    for name, modules in needed.items():
+        meta = json.loads((root / f"{name}.ipynb").read_text())["metadata"]["gfxlab"]
+        assert modules <= set(meta["forbid"]), name
