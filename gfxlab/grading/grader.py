@@ -614,7 +614,9 @@ def grade_one(directory, submission, *, limits=None) -> GradeResult:
     The child starts its sandbox while the tests load (as `Autograder(warm=True)`).
     `IsolationUnavailable` and other grader failures in the child are raised here.
     """
-    grader = Autograder(directory)
+    # No tests load here before the fork (a test file could start JAX's threads).
+    light = Autograder.without_tests(directory, assignment="", preload=(), forbid=())
+    light.config = json.loads((light.directory / "config.json").read_text())
     label = _bounded(pathlib.Path(submission).name, 200)
 
     def work():
@@ -625,7 +627,7 @@ def grade_one(directory, submission, *, limits=None) -> GradeResult:
         finally:
             child.close()
 
-    seconds = grader.hard_limit(limits)
+    seconds = light.hard_limit(limits)
     kind, value = run_bounded(work, seconds)
     if kind == "ok":
         return value
@@ -636,4 +638,4 @@ def grade_one(directory, submission, *, limits=None) -> GradeResult:
         if kind == "timeout"
         else "the grader process died"
     )
-    return grader.empty_result(label, "", f"grader error: {reason}")
+    return Autograder(directory).empty_result(label, "", f"grader error: {reason}")
