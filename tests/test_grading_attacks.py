@@ -305,9 +305,7 @@ def test_every_attack_scores_only_its_honest_part(graded):
     assert "raised an exception" in feedback["exception_name"]
     # memfd_create is refused by the seccomp filter: no memory outside every limit.
     assert "MEMFD 0 MB" in feedback["memfd_hoard"], feedback["memfd_hoard"]
-    assert "`skimage.draw` is not allowed in this assignment" in json.dumps(
-        results["forbidden_library"]
-    )
+    assert "`skimage` is not allowed in this assignment" in json.dumps(results["forbidden_library"])
     assert "the reply" in feedback["hash_bomb"] or "dict keys" in feedback["hash_bomb"], feedback[
         "hash_bomb"
     ]

@@ -198,3 +198,54 @@ def test_the_library_is_unimportable_through_any_of_its_modules():
             kwargs=codec.encode({}),
         )
     assert message.startswith("`gfxlab.animation` is not allowed in this assignment")
+
+
+HELPER = "lambda control, u: sum(u**i * jnp.asarray(control)[i] for i in range(len(control)))"
+USERS = (
+    "def bezier_point(control, u):\n    return bern(control, u)\n\n\n"
+    "def de_casteljau(control, u):\n    return bern(control, u)\n"
+)
+
+
+def test_shared_helpers_bound_any_way_are_in_the_closure():
+    # Red team 2 #1, #2: a walrus inside a comprehension, a `match` capture.
+    for binder in (
+        f"[bern := ({HELPER}) for _ in (0,)]",
+        f"match ({HELPER}):\n    case bern:\n        pass",
+        f"match {{'k': 1}}:\n    case {{**bern}}:\n        bern = {HELPER}",
+        f"try:\n    1 / 0\nexcept ZeroDivisionError as bern:\n    pass\nbern2 = {HELPER}",
+    ):
+        cells = ["import jax.numpy as jnp", binder, USERS.replace("bern(", "bern2(")]
+        if "bern2 =" not in binder:
+            cells[2] = USERS
+        q2 = {v.function: v for v in reuse.plan(cells, RULES)}["de_casteljau"]
+        assert q2.dynamic and q2.hatch is None, binder
+        assert {"bezier_point"} < q2.closure
+        namespace = {}
+        for cell in reuse.check_cells(cells, q2.closure, "t0k"):
+            exec(cell, namespace)
+        with pytest.raises(NameError, match="not available"):
+            namespace["de_casteljau"]([[0.0], [1.0]], 0.5)
+
+
+def test_modules_written_at_run_time_are_hatches_and_debug_lines_are_not():
+    # Red team 2 #2c: a helper module written to /tmp and put on the path.
+    written = (
+        "import pathlib, site\n"
+        "pathlib.Path('/tmp/bh/bhelp.py').write_text('def bern(c, u): ...')\n"
+        "site.addsitedir('/tmp/bh')\nfrom bhelp import bern\n"
+    )
+    for hidden in (written, written.replace(".py", ""), "from gx_no_such_module import bern"):
+        cells = ["import jax.numpy as jnp", hidden, USERS]
+        q2 = {v.function: v for v in reuse.plan(cells, RULES)}["de_casteljau"]
+        assert q2.hatch, hidden
+    # Red team 2 #3: an honest debug line with `type` (or a lookup outside the forbidden
+    # code) runs the second sandbox instead of scoring 0.
+    honest = ["import jax.numpy as jnp", BERNSTEIN.replace("_bern", "bezier_point"), DE_CASTELJAU]
+    for line in ("print(type(bezier_point([[0.0], [1.0]], 0.5)))", "print(globals().keys())"):
+        verdicts = reuse.plan([*honest, line], RULES)
+        assert all(v.hatch is None for v in verdicts), line
+        assert {v.function: v for v in verdicts}["de_casteljau"].dynamic, line
+    # A lookup inside the forbidden code could reach anything: 0 points.
+    sneaky = [*honest, "def bezier_point(c, u):\n    return globals()['de_casteljau'](c, u)"]
+    assert {v.function: v for v in reuse.plan(sneaky, RULES)}["de_casteljau"].hatch

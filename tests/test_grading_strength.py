@@ -204,9 +204,9 @@ def test_forbidden_modules_are_announced(student_notebooks):
     assert student["metadata"]["gfxlab"]["forbid"][0] == "gfxlab"
     # Libraries that solve an assignment are forbidden in it, and the handout says so.
     for name, library in [
-        ("01_midpoint_circle", "`skimage.draw`"),
-        ("02_cohen_sutherland", "`shapely`"),
-        ("03_bezier", "`bezier`, `scipy.interpolate`"),
+        ("01_midpoint_circle", "`skimage`, `cv2`, `matplotlib`, `PIL`"),
+        ("02_cohen_sutherland", "`shapely`, `matplotlib`, `PIL`"),
+        ("03_bezier", "`bezier`, `scipy.interpolate`, `matplotlib`"),
     ]:
         cells = student_notebooks[name][0]["cells"]
         text = "\n".join(c["source"] for c in cells if c["cell_type"] == "markdown")

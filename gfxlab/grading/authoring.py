@@ -487,30 +487,78 @@ def _forbid_cell(config: dict) -> dict | None:
         text += (
             f"\n\n**Write `{function}` on its own:** it may not call {names}, nor share "
             "their helper functions or values; a test that passes only with them scores 0 "
-            "(the grader runs it again with them removed). Such a notebook may not use "
-            "`exec`, `eval`, `globals`, `getattr` or modules such as `sys` and `inspect` "
-            "either: the question would score 0."
+            "(the grader runs it again with them removed). Code the grader cannot read "
+            "scores 0 on such a question: `exec`, `eval`, `compile`, `__import__`, the "
+            "modules `importlib`, `types`, `pickle`, `marshal`, `runpy`, `site`, `ctypes`, "
+            "and importing modules the notebook writes (`.py` files) or puts on the path; "
+            "so do name lookups (`globals`, `vars`, `getattr`, `sys`, `gc`, `inspect`, "
+            "frames, dunder attributes) inside the functions it may not use."
         )
     return new_cell("markdown", text.strip())
+
+
+def _scan_line(line: str, state: list) -> None:
+    """Advance `state` = [bracket depth, open string quote or "", line continues] over one
+    physical line (strings, comments, brackets and backslashes as Python reads them)."""
+    depth, quote = state[0], state[1]
+    i, n, comment = 0, len(line), False
+    while i < n:
+        c = line[i]
+        if quote:
+            if c == "\\":
+                i += 2
+                continue
+            if line.startswith(quote, i):
+                i += len(quote)
+                quote = ""
+                continue
+            i += 1
+            continue
+        if c == "#":
+            comment = True
+            break
+        if c in "\"'":
+            quote = c * 3 if line.startswith(c * 3, i) else c
+            i += len(quote)
+            continue
+        if c in "([{":
+            depth += 1
+        elif c in ")]}":
+            depth = max(0, depth - 1)
+        i += 1
+    if quote and len(quote) == 1 and not line.endswith("\\"):
+        quote = ""  # an unterminated one-line string ends with its line (a syntax error)
+    state[0], state[1] = depth, quote
+    state[2] = bool(depth or quote or (line.endswith("\\") and not comment))
+
+
+def comment_magics(src: str) -> str:
+    """IPython magics and shell escapes (`%...`, `!...`) that start a logical line become
+    comments; a `%` or `!` continuing an expression (inside brackets, after a backslash,
+    in a string) is Python and stays."""
+    lines, state = [], [0, "", False]
+    for line in src.splitlines():
+        stripped = line.lstrip()
+        if not state[2] and stripped.startswith(("%", "!")):
+            line = line[: len(line) - len(stripped)] + "# " + stripped
+        else:
+            _scan_line(line, state)
+        lines.append(line)
+    return "\n".join(lines)
 
 
 def student_code_cells(notebook) -> list[str]:
     """The code a submission runs: every code cell except tagged public-test cells.
 
-    IPython magics and shell escapes (`%...`, `!...`) become comments.
+    IPython magics and shell escapes (`%...`, `!...`) at the start of a logical line
+    become comments (`comment_magics`).
     """
     cells = []
     for cell in notebook["cells"]:
         if cell["cell_type"] != "code" or "tests" in cell["metadata"].get("gfxlab", {}):
             continue
         src = cell["source"] if isinstance(cell["source"], str) else "".join(cell["source"])
-        lines = []
-        for line in src.splitlines():
-            stripped = line.lstrip()
-            if stripped.startswith(("%", "!")):
-                line = line[: len(line) - len(stripped)] + "# " + stripped
-            lines.append(line)
-        cells.append("\n".join(lines))
+        cells.append(comment_magics(src))
     return cells
 
 

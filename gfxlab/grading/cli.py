@@ -161,14 +161,13 @@ def _grade(argv) -> int:
     if not args.submission.is_file():
         print(f"error: {args.submission} not found", file=sys.stderr)
         return 1
-    # The sandbox starts while the tests load; one submission: no spare after it.
-    autograder = grader.Autograder(args.autograder, warm=True, limits=_limits(args))
-    autograder.warm = False
+    # In a child process killed at the hard limit; its sandbox starts while tests load.
     try:
-        result = autograder.grade(args.submission, limits=_limits(args))
+        result = grader.grade_one(args.autograder, args.submission, limits=_limits(args))
     except IsolationUnavailable:
         raise
     except Exception as exc:  # the grader broke: still a bounded results file, exit code 2
+        autograder = grader.Autograder(args.autograder)
         result = autograder.empty_result(args.submission.name, "", f"grader error: {exc!r}")
     out = args.out or pathlib.Path("results.json")
     out.write_text(json.dumps(result.to_gradescope(), indent=1))

@@ -194,7 +194,16 @@ def dumps(message):
 
 
 def loads(body):
-    """Parse one frame body (bytes) as JSON; a JSON error becomes `WireError`."""
+    """Parse one frame body (bytes) as JSON; a JSON error becomes `WireError`.
+
+    The number of values is bounded *before* parsing (`json.loads` builds every object
+    first): each value after the first follows a `,` or opens a `[`/`{`, so their count
+    bounds it, and a small frame of `[[],[],...]` cannot make the parser allocate
+    gigabytes.
+    """
+    values = body.count(b",") + body.count(b"[") + body.count(b"{")
+    if values > MAX_ITEMS:
+        raise WireError(f"more than {MAX_ITEMS} values")
     try:
         return json.loads(body.decode("utf-8"))
     except (ValueError, RecursionError) as exc:

@@ -26,6 +26,14 @@ import traceback
 import numpy as np
 
 from . import authoring, reuse
+from ._bounds import (
+    _NO_DEADLINE,
+    HARD_MARGIN_SECONDS,
+    TEST_CPU_SECONDS,
+    _CpuDeadline,
+    _TestTimedOut,
+    run_bounded,
+)
 from .checks import Feedback, check_array
 from .sandbox import Limits, Sandbox, detect_protections, require_confinement
 from .session import StudentCallError, StudentRaised, StudentSession
@@ -46,17 +54,24 @@ MAX_NOTEBOOK_BYTES = 16 * 2**20
 class StudentFunction:
     """Proxy for a function in the student process; calling it is an RPC."""
 
-    def __init__(self, session: StudentSession, name: str, transforms: tuple = ()):
+    def __init__(self, session: StudentSession, name: str, transforms: tuple = (), deadline=None):
         self._session, self.name, self.transforms = session, name, transforms
+        self._deadline = deadline or _NO_DEADLINE
 
     def __call__(self, *args, **kwargs):
         """Call the function in the student process (arguments and result are plain data)."""
-        return self._session.call(self.name, self.transforms, args, kwargs)
+        self._deadline.in_rpc += 1
+        try:
+            return self._session.call(self.name, self.transforms, args, kwargs)
+        finally:
+            self._deadline.in_rpc -= 1
+            self._deadline.rpc_done()
 
     def transformed(self, op: str, **options) -> StudentFunction:
         """This function with the transform `op` (e.g. `grad`) applied in the student process."""
         options = {k: tuple(v) if isinstance(v, list) else v for k, v in options.items()}
-        return StudentFunction(self._session, self.name, (*self.transforms, (op, options)))
+        chain = (*self.transforms, (op, options))
+        return StudentFunction(self._session, self.name, chain, self._deadline)
 
     def __repr__(self):
         chain = "".join(f"{op}(" for op, _ in reversed(self.transforms))
@@ -331,6 +346,12 @@ class Autograder:
         values = {**self.config.get("limits", {}), **(overrides or {})}
         return dataclasses.replace(Limits(), **values)
 
+    def hard_limit(self, limits=None) -> float:
+        """Wall seconds after which grading one submission is stopped, whatever happens:
+        its budget (twice, for a second sandbox with `separate` rules) plus a margin."""
+        budgets = 2 if self.config.get("separate") else 1
+        return budgets * self.limits(limits).budget_seconds + HARD_MARGIN_SECONDS
+
     def _sandbox_options(self) -> dict:
         return dict(
             preload=tuple(self.config.get("preload", ["numpy"])),
@@ -445,15 +466,26 @@ class Autograder:
                 continue
             if spec.hidden:  # from now on, replays show no student text (see _ensure)
                 session.hidden_started = True
-            proxies = [StudentFunction(session, rename.get(p, p)) for p in spec.params]
-            try:
-                namespace[spec.name](*proxies)
-            except Exception as exc:  # a failing test, whatever the reason
-                message = _failure_message(exc, spec.hidden)
-                out.append(TestResult(spec.name, spec.hidden, False, spec.weight, message))
-            else:
-                out.append(TestResult(spec.name, spec.hidden, True, spec.weight))
+            out.append(self._run_test(namespace[spec.name], spec, session, rename))
         return QuestionResult(question.name, question.points, out)
+
+    def _run_test(self, test, spec, session, rename) -> TestResult:
+        """One test under the grader's CPU deadline: a test the student's data makes slow
+        here (e.g. colliding hashes in the test's own sets) fails as "timed out"."""
+        seconds = float(self.config.get("test_cpu_seconds", TEST_CPU_SECONDS))
+        try:
+            with _CpuDeadline(seconds) as deadline:
+                proxies = [
+                    StudentFunction(session, rename.get(p, p), (), deadline) for p in spec.params
+                ]
+                test(*proxies)
+        except _TestTimedOut:
+            message = f"timed out: the test's checks of your result took over {seconds:g} s"
+            return TestResult(spec.name, spec.hidden, False, spec.weight, message)
+        except Exception as exc:  # a failing test, whatever the reason
+            message = _failure_message(exc, spec.hidden)
+            return TestResult(spec.name, spec.hidden, False, spec.weight, message)
+        return TestResult(spec.name, spec.hidden, True, spec.weight)
 
     def empty_result(self, label: str, note: str, error: str | None = None) -> GradeResult:
         """Zero on every question, with the reason (unreadable notebook, grader failure)."""
@@ -487,3 +519,38 @@ class Autograder:
         except Exception as exc:  # unreadable notebook: zero, with the reason
             return self.empty_result(label, f"could not read the notebook: {_bounded(exc, 300)}")
         return self.grade_cells(cells, label=label, numbers=numbers, **kwargs)
+
+
+def grade_one(directory, submission, *, limits=None) -> GradeResult:
+    """Grade one notebook with the autograder in `directory`, in a child process killed at
+    the hard limit (`Autograder.hard_limit`): a submission whose data makes the grader's
+    own code slow gets a bounded grader-error result, never a grader that runs forever.
+
+    The child starts its sandbox while the tests load (as `Autograder(warm=True)`).
+    `IsolationUnavailable` and other grader failures in the child are raised here.
+    """
+    # No tests load here before the fork (a test file could start JAX's threads).
+    light = Autograder.without_tests(directory, assignment="", preload=(), forbid=())
+    light.config = json.loads((light.directory / "config.json").read_text())
+    label = _bounded(pathlib.Path(submission).name, 200)
+
+    def work():
+        child = Autograder(directory, warm=True, limits=limits)
+        child.warm = False
+        try:
+            return child.grade(submission, limits=limits)
+        finally:
+            child.close()
+
+    seconds = light.hard_limit(limits)
+    kind, value = run_bounded(work, seconds)
+    if kind == "ok":
+        return value
+    if kind == "raise":
+        raise value
+    reason = (
+        f"grading took longer than {seconds:g} s and was stopped"
+        if kind == "timeout"
+        else "the grader process died"
+    )
+    return Autograder(directory).empty_result(label, "", f"grader error: {reason}")

@@ -15,7 +15,7 @@ import pathlib
 import stat
 import zipfile
 
-from .grader import Autograder, _bounded
+from .grader import Autograder, _bounded, grade_one
 
 SETUP = """#!/usr/bin/env bash
 # Gradescope runs this once when it builds the autograder image.
@@ -107,15 +107,15 @@ def write_zip(autograder_dir, path) -> pathlib.Path:
 def run(autograder_dir, submission_dir, results_json) -> int:
     """Grade the one notebook of a Gradescope submission; always writes `results_json`."""
     results_json = pathlib.Path(results_json)
-    grader = Autograder(autograder_dir, warm=True)  # the sandbox starts as the tests load
-    grader.warm = False
+    grader = Autograder(autograder_dir)
     notebooks = sorted(pathlib.Path(submission_dir).glob("**/*.ipynb"))[:50]
     preferred = [p for p in notebooks if p.stem == grader.name]
     if not notebooks:
         result = grader.empty_result("submission", "no .ipynb file was submitted")
     else:
         try:
-            result = grader.grade((preferred or notebooks)[0])
+            # In a child killed at the hard limit (its sandbox starts as the tests load).
+            result = grade_one(autograder_dir, (preferred or notebooks)[0])
         except Exception as exc:  # the sandbox refused (host) or the grader broke
             result = grader.empty_result("submission", "", f"grader error: {_bounded(exc, 1500)}")
     results_json.write_text(json.dumps(result.to_gradescope(), indent=1))

@@ -21,31 +21,43 @@ Sharing a helper with the forbidden function counts as using it (the handout say
 from __future__ import annotations
 
 import ast
+import builtins
 import dataclasses
+import importlib.util
 import secrets
+import sys
 
-HATCH_NAMES = frozenset(
+# Code the AST cannot see (built from strings, loaded from files or bytes, imported from
+# modules the notebook writes or puts on the path): such a notebook cannot be checked and
+# the question scores 0.
+CODE_HATCH_NAMES = frozenset({"exec", "eval", "compile", "__import__", "breakpoint"})
+CODE_HATCH_MODULES = frozenset(
     {
-        "exec", "eval", "compile", "globals", "locals", "vars", "getattr", "setattr",
-        "delattr", "__import__", "breakpoint", "help", "type", "object", "super",
-        "memoryview", "open", "input", "classmethod", "staticmethod", "property",
+        "importlib", "ctypes", "types", "pickle", "marshal", "dill", "cloudpickle", "code",
+        "codeop", "runpy", "copyreg", "pdb", "bdb", "site", "pkgutil", "zipimport",
     }
 )  # fmt: skip
-HATCH_MODULES = frozenset(
-    {
-        "sys", "gc", "inspect", "types", "ctypes", "builtins", "importlib", "__main__",
-        "operator", "pickle", "marshal", "code", "codeop", "runpy", "copyreg", "dill",
-        "cloudpickle", "traceback", "dis", "pdb", "bdb", "string", "ast", "functools",
-        "weakref", "os", "io", "threading", "multiprocessing", "signal",
-    }
-)  # fmt: skip
-HATCH_ATTRIBUTES = frozenset(
+# Strings naming Python code files or the import path: a notebook that writes a module
+# (or a path hook) and imports it.
+CODE_HATCH_STRINGS = (".py", ".pth", ".so", "sys.path", "PYTHONPATH")
+# Name lookups (by string, through frames or namespaces): they can only find code that
+# is in the process, so the second sandbox (which removes the forbidden code) decides,
+# unless the forbidden code itself uses one (it could then share anything: 0 points).
+LOOKUP_HATCH_NAMES = frozenset(
+    {"globals", "locals", "vars", "getattr", "setattr", "delattr", "attrgetter", "methodcaller"}
+)
+LOOKUP_HATCH_MODULES = frozenset({"sys", "gc", "inspect", "builtins", "__main__", "traceback"})
+LOOKUP_HATCH_ATTRIBUTES = frozenset(
     {
         "tb_frame", "tb_next", "f_globals", "f_locals", "f_back", "f_builtins", "f_code",
         "gi_frame", "cr_frame", "ag_frame", "gi_code", "cr_code", "modules", "exc_info",
-        "attrgetter", "methodcaller", "sys", "os", "builtins", "getframe",
+        "attrgetter", "methodcaller", "getframe", "get_referrers", "get_objects",
     }
 )  # fmt: skip
+# Kept for readers of the old names (the handout lists them).
+HATCH_NAMES = CODE_HATCH_NAMES | LOOKUP_HATCH_NAMES
+HATCH_MODULES = CODE_HATCH_MODULES | LOOKUP_HATCH_MODULES
+HATCH_ATTRIBUTES = LOOKUP_HATCH_ATTRIBUTES
 
 
 @dataclasses.dataclass
@@ -56,6 +68,7 @@ class Verdict:
     forbidden: tuple[str, ...]
     closure: frozenset = frozenset()
     hatch: str | None = None  # an escape hatch that makes the notebook uncheckable
+    lookup: str | None = None  # a name lookup elsewhere: the second sandbox decides
     dynamic: bool = False  # the names are used elsewhere: run the second sandbox
 
 
@@ -69,27 +82,40 @@ def _units(cells) -> list[ast.stmt]:
     return out
 
 
+_SCOPES = (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef, ast.Lambda)
+_COMPREHENSIONS = (ast.ListComp, ast.SetComp, ast.DictComp, ast.GeneratorExp)
+
+
 def _bound(stmt: ast.stmt) -> set[str]:
-    """Top-level names `stmt` binds (plus any it declares `global` anywhere inside)."""
+    """Top-level names `stmt` binds (plus any it declares `global` anywhere inside):
+    assignments, walrus targets (also inside comprehensions, which bind the enclosing
+    scope), `match` captures, `except ... as`, imports, definitions."""
     names: set[str] = set()
     if isinstance(stmt, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
         names.add(stmt.name)
     elif isinstance(stmt, (ast.Import, ast.ImportFrom)):
         names.update((a.asname or a.name).split(".")[0] for a in stmt.names)
     else:
-        stack = [stmt]
+        stack = [(stmt, False)]
         while stack:
-            node = stack.pop()
-            if isinstance(node, ast.Name) and isinstance(node.ctx, (ast.Store, ast.Del)):
-                names.add(node.id)
-            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            node, in_comp = stack.pop()
+            if isinstance(node, ast.NamedExpr) and isinstance(node.target, ast.Name):
+                names.add(node.target.id)
+            elif isinstance(node, ast.Name) and isinstance(node.ctx, (ast.Store, ast.Del)):
+                if not in_comp:
+                    names.add(node.id)
+            elif isinstance(node, (ast.MatchAs, ast.MatchStar)) and node.name:
                 names.add(node.name)
+            elif isinstance(node, ast.MatchMapping) and node.rest:
+                names.add(node.rest)
+            elif isinstance(node, ast.ExceptHandler) and node.name and not in_comp:
+                names.add(node.name)
+            if isinstance(node, _SCOPES):
+                if not isinstance(node, ast.Lambda):
+                    names.add(node.name)
                 continue
-            if isinstance(
-                node, (ast.Lambda, ast.ListComp, ast.SetComp, ast.DictComp, ast.GeneratorExp)
-            ):
-                continue
-            stack.extend(ast.iter_child_nodes(node))
+            inner = in_comp or isinstance(node, _COMPREHENSIONS)
+            stack.extend((child, inner) for child in ast.iter_child_nodes(node))
     for node in ast.walk(stmt):
         if isinstance(node, (ast.Global, ast.Nonlocal)):
             names.update(node.names)
@@ -100,24 +126,32 @@ def _loaded(stmt: ast.stmt) -> set[str]:
     return {n.id for n in ast.walk(stmt) if isinstance(n, ast.Name) and type(n.ctx) is ast.Load}
 
 
-def _hatch(stmt: ast.stmt) -> str | None:
+def _hatch(stmt: ast.stmt, lookup: bool = False) -> str | None:
+    """The first escape hatch in `stmt`: code hatches, or (`lookup`) name lookups."""
+    names = LOOKUP_HATCH_NAMES if lookup else CODE_HATCH_NAMES
+    modules = LOOKUP_HATCH_MODULES if lookup else CODE_HATCH_MODULES
     for node in ast.walk(stmt):
         if isinstance(node, ast.Name) and (
-            node.id in HATCH_NAMES or (node.id.startswith("__") and node.id.endswith("__"))
+            node.id in names or (lookup and node.id.startswith("__") and node.id.endswith("__"))
         ):
             return f"`{node.id}`"
-        if isinstance(node, ast.Attribute) and (
-            node.attr.startswith("_") or node.attr in HATCH_ATTRIBUTES
-        ):
-            return f"the attribute `{node.attr}`"
+        if lookup and isinstance(node, ast.Attribute):
+            if node.attr.startswith("_") or node.attr in LOOKUP_HATCH_ATTRIBUTES:
+                return f"the attribute `{node.attr}`"
+        if not lookup and isinstance(node, ast.Constant) and isinstance(node.value, str):
+            hit = next((h for h in CODE_HATCH_STRINGS if h.lower() in node.value.lower()), None)
+            if hit:
+                return f"a string naming `{hit}` (a module written or put on the path)"
         if isinstance(node, ast.Import):
             for alias in node.names:
-                if alias.name.split(".")[0] in HATCH_MODULES:
+                if alias.name.split(".")[0] in modules:
                     return f"the module `{alias.name}`"
         if isinstance(node, ast.ImportFrom):
             module = (node.module or "").split(".")[0]
-            if node.level or module in HATCH_MODULES:
+            if (node.level and not lookup) or module in modules:
                 return f"the module `{node.module}`"
+            if lookup and any(a.name in LOOKUP_HATCH_ATTRIBUTES for a in node.names):
+                return f"`{node.module}.{node.names[0].name}`"
     return None
 
 
@@ -145,19 +179,74 @@ def forbidden_closure(units, forbidden, function) -> frozenset:
     return frozenset(closure)
 
 
+def _foreign_import(units) -> str | None:
+    """An import of a module that is not installed (one the notebook writes at run time)."""
+    for node in (n for u in units for n in ast.walk(u)):
+        if isinstance(node, ast.Import):
+            modules = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and not node.level and node.module:
+            modules = [node.module]
+        else:
+            continue
+        for module in modules:
+            top = module.split(".")[0]
+            try:
+                found = top in sys.builtin_module_names or importlib.util.find_spec(top)
+            except (ImportError, ValueError):
+                found = None
+            if not found:
+                return f"an import of `{module}`, which is not an installed module"
+    return None
+
+
+def _unbound_reads(units, closure) -> set[str]:
+    """Names the closure's statements read that no statement visibly binds and that are
+    not builtins: bound in a way the analysis does not see, so they are stubbed too."""
+    bound = {n for u in units for n in _bound(u)}
+    binders = [u for u in units if _bound(u) & closure]
+    reads = {n for u in binders for n in _loaded(u)}
+    local = {n for u in binders for node in ast.walk(u) for n in _locals(node)}
+    return reads - bound - local - set(dir(builtins))
+
+
+def _locals(node) -> set[str]:
+    """Names local to a function, lambda or comprehension inside a statement."""
+    if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+        args = node.args
+        every = [*args.posonlyargs, *args.args, *args.kwonlyargs, args.vararg, args.kwarg]
+        names = {a.arg for a in every if a is not None}
+        body = node.body if isinstance(node.body, list) else [node.body]
+        for stmt in body:
+            for sub in ast.walk(stmt):
+                if isinstance(sub, ast.Name) and isinstance(sub.ctx, ast.Store):
+                    names.add(sub.id)
+        return names
+    if isinstance(node, _COMPREHENSIONS):
+        return {
+            n.id for gen in node.generators for n in ast.walk(gen.target) if isinstance(n, ast.Name)
+        }
+    return set()
+
+
 def plan(cells, rules: dict) -> list[Verdict]:
     """The static step for every rule `function -> [forbidden names]`."""
     units = _units(cells)
-    hatch = next((h for h in map(_hatch, units) if h), None)
+    hatch = next((h for h in map(_hatch, units) if h), None) or _foreign_import(units)
     verdicts = []
     for function, forbidden in rules.items():
         verdict = Verdict(function, tuple(forbidden))
-        verdict.closure = forbidden_closure(units, verdict.forbidden, function)
-        verdict.hatch = hatch
+        closure = forbidden_closure(units, verdict.forbidden, function)
+        verdict.closure = closure | _unbound_reads(units, closure)
         binders = [u for u in units if _bound(u) & verdict.closure]
         others = [u for u in units if not any(u is b for b in binders)]
-        verdict.dynamic = any(_loaded(u) & verdict.closure for u in others) or any(
-            function in _bound(u) for u in binders
+        # A lookup inside the forbidden code could share anything with the graded one.
+        inside = next((h for h in (_hatch(u, lookup=True) for u in binders) if h), None)
+        verdict.hatch = hatch or inside
+        verdict.lookup = next((h for h in (_hatch(u, lookup=True) for u in others) if h), None)
+        verdict.dynamic = (
+            bool(verdict.lookup)
+            or any(_loaded(u) & verdict.closure for u in others)
+            or any(function in _bound(u) for u in binders)
         )
         verdicts.append(verdict)
     return verdicts
