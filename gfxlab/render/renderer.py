@@ -548,13 +548,15 @@ def render(
         if mesh.colors is not None
         else (mesh.texture.shape[-1] if mesh.texture is not None else 3)
     )
-    background = as_float(background, "background").astype(dtype)
+    background = check_finite(as_float(background, "background").astype(dtype), "background")
+    ambient = check_finite(as_float(ambient, "ambient"), "ambient")
+    eps_background = check_finite(as_float(eps_background, "eps_background"), "eps_background")
     if background.ndim > 1 or background.size not in (1, channels):
         raise ValueError(
             f"`background` must be a scalar or a colour ({channels},), got shape {background.shape}"
         )
     background = jnp.broadcast_to(background, (channels,))
-    params = (sigma, gamma, jnp.asarray(eps_background, dtype))
+    params = (sigma, gamma, eps_background.astype(dtype))
     soft = mode == "soft"
     capacity = _render_capacity(
         mesh,

@@ -263,6 +263,9 @@ def soft_rasterize(
     background counts as the far plane).
     """
     height, width = static_shape(shape)
+    check_mesh_camera(mesh, camera)
+    ambient = check_finite(as_float(ambient, "ambient"), "ambient")
+    eps_background = check_finite(as_float(eps_background, "eps_background"), "eps_background")
     tri, inv_depth, colors, valid = _project_mesh(mesh, camera, (height, width), light, ambient)
     dtype = tri.dtype
     sigma = as_float(sigma, "sigma").astype(dtype)
@@ -273,7 +276,7 @@ def soft_rasterize(
         sigma, eps, tile_size, capacity, tiles_per_step
     )
     gamma = value_error_if(gamma, ~(gamma > 0), "`gamma` must be > 0")
-    background = as_float(background, "background").astype(dtype)
+    background = check_finite(as_float(background, "background").astype(dtype), "background")
     check_shape(background, "background", (colors.shape[-1],))
     margin = jnp.sqrt(sigma * logit_limit(eps))
     capacity = resolve_capacity(
@@ -285,7 +288,7 @@ def soft_rasterize(
         camera.near.astype(dtype),
         camera.far.astype(dtype),
         background,
-        jnp.asarray(eps_background, dtype),
+        eps_background.astype(dtype),
     )
     out, max_count = _color_core(
         tri,
