@@ -55,29 +55,6 @@ def test_tiled_silhouette_equals_dense(maybe_jit):
     assert float(dense.max()) > 0.9
 
 
-def test_written_out_geometry_vjp_equals_autodiff():
-    """The pixel-triangle geometry's hand-written VJP (distance, barycentrics) equals
-    autodiff of the same formulas, degenerate and collinear triangles included."""
-    from gfxlab.render import _tiles
-
-    rng = np.random.default_rng(0)
-    points = jnp.asarray(rng.uniform(0, 10, (30, 2)))
-    tri = jnp.asarray(rng.uniform(0, 10, (7, 3, 2)))
-    tri = tri.at[3].set(tri[3, :1].repeat(3, 0))  # shrunk to a point
-    tri = tri.at[4, 2].set((tri[4, 0] + tri[4, 1]) / 2)  # collinear
-    g_d2 = jnp.asarray(rng.normal(size=(30, 7)))
-    g_bary = jnp.asarray(rng.normal(size=(3, 30, 7)))
-
-    def loss(fn, tri):
-        d2, _, bary = fn(points, tri)
-        return jnp.sum(g_d2 * d2) + sum(jnp.sum(g * b) for g, b in zip(g_bary, bary, strict=True))
-
-    ours = jax.grad(lambda t: loss(_tiles.pixel_face_planes, t))(tri)
-    ref = jax.grad(lambda t: loss(_tiles._pixel_face_planes_autodiff, t))(tri)
-    assert float(jnp.abs(ref).max()) > 1.0
-    np.testing.assert_allclose(ours, ref, rtol=1e-10, atol=1e-10)
-
-
 def test_silhouette_gradients_equal_plain_autodiff():
     """The tiles' custom VJP (recomputed per step, one segment_sum) equals plain autodiff
     of the dense formula, for the vertices and sigma, and passes check_grads."""
@@ -114,7 +91,7 @@ def test_rasterizer_gradients_equal_plain_autodiff():
     def loss(vertices, colors, eye, tiled=True):
         m, c = Mesh(vertices, mesh.faces, colors), Camera(eye, near=0.5, far=10.0)
         if tiled:
-            rgba, depth = R.soft_rasterize(m, c, shape, tile_size=4, capacity=40, **kw)
+            rgba, depth = R.soft_rasterize(m, c, shape, tile_size=4, capacity=64, **kw)
         else:
             rgba, depth = R._dense_soft_rasterize(m, c, shape, **kw)
         return jnp.sum(weights * rgba) + 0.1 * jnp.sum(depth)

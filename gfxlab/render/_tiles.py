@@ -37,12 +37,17 @@ def pixel_face_terms(points, tri):
     return d2, inside, jnp.stack(bary, -1)
 
 
-def _plane_parts(points, tri):
-    """The per-pair pieces of `pixel_face_planes` its VJP reuses."""
+def pixel_face_planes(points, tri):
+    """`pixel_face_terms` with the barycentrics as a list of three `(P, K)` planes.
+
+    Written per coordinate (no trailing axes of size 2 or 3, which XLA runs slower);
+    per-face quantities (edges, reciprocal lengths and area) are computed once per face.
+    """
     px, py = points[:, 0:1], points[:, 1:2]  # (P, 1)
     cx = [tri[None, :, k, 0] for k in range(3)]  # (1, K) each
     cy = [tri[None, :, k, 1] for k in range(3)]
-    dist, edge_fn, t_o = [], [], []
+    d2 = None
+    edge_fn = []
     for k in range(3):
         ex, ey = cx[(k + 1) % 3] - cx[k], cy[(k + 1) % 3] - cy[k]
         length2 = ex * ex + ey * ey
@@ -51,118 +56,18 @@ def _plane_parts(points, tri):
         rx, ry = px - cx[k], py - cy[k]
         t = jnp.clip((rx * ex + ry * ey) * inv_length2, 0.0, 1.0)
         ox, oy = rx - t * ex, ry - t * ey
-        dist.append(ox * ox + oy * oy)
-        t_o.append((t, ox, oy))
+        dk = ox * ox + oy * oy
+        d2 = dk if d2 is None else jnp.minimum(d2, dk)
         edge_fn.append(ex * ry - ey * rx)  # twice the signed area opposite corner k + 2
     area2 = (cx[1] - cx[0]) * (cy[2] - cy[0]) - (cy[1] - cy[0]) * (cx[2] - cx[0])
     proper = area2 != 0
-    inv_area = 1.0 / jnp.where(proper, area2, 1.0)
-    raw = [edge_fn[(k + 1) % 3] * inv_area for k in range(3)]  # unclamped barycentrics
-    clamped = [jnp.clip(u, 0.0, 1.0) for u in raw]
-    total = clamped[0] + clamped[1] + clamped[2]
-    return dist, edge_fn, t_o, area2, proper, inv_area, raw, clamped, total
-
-
-def _balanced(a, b):
-    """d min(a, b) / d a as JAX defines it (half each at a tie)."""
-    return jnp.where(a < b, 1.0, jnp.where(a == b, 0.5, 0.0))
-
-
-@jax.custom_vjp
-def pixel_face_planes(points, tri):
-    """`pixel_face_terms` with the barycentrics as a list of three `(P, K)` planes.
-
-    Written per coordinate (no trailing axes of size 2 or 3, which XLA runs slower).
-    Its VJP (with respect to `tri`) is written out: the distance's gradient at the
-    nearest point of the nearest edge (the parameter `t` drops out, Danskin) and the
-    barycentrics' through the edge functions, summed over the pixels as a few moments
-    `sum_p g`, `sum_p g x_p`, `sum_p g y_p` per face.
-    """
-    return _planes_fwd(points, tri)[0]
-
-
-def _planes_fwd(points, tri):
-    dist, edge_fn, _, area2, proper, _, _, clamped, total = _plane_parts(points, tri)
-    d2 = jnp.minimum(jnp.minimum(dist[0], dist[1]), dist[2])
     sign = jnp.sign(area2)
     inside = proper & (edge_fn[0] * sign >= 0) & (edge_fn[1] * sign >= 0) & (edge_fn[2] * sign >= 0)
-    inv_total = 1.0 / jnp.maximum(total, 1e-12)
-    bary = [jnp.where(proper, b * inv_total, 1.0 / 3) for b in clamped]
-    return (d2, inside, bary), (points, tri)
-
-
-def _planes_bwd(residuals, cotangents):
-    points, tri = residuals
-    g_d2, _, g_bary = cotangents
-    dist, edge_fn, t_o, area2, proper, inv_area, raw, clamped, total = _plane_parts(points, tri)
-    dtype = tri.dtype
-    # distance: the gradient goes to the nearest edge, as jnp.minimum splits ties
-    m01 = jnp.minimum(dist[0], dist[1])
-    w_last = _balanced(m01, dist[2])
-    weights = [
-        _balanced(dist[0], dist[1]) * w_last,
-        _balanced(dist[1], dist[0]) * w_last,
-        _balanced(dist[2], m01),
-    ]
-    # barycentrics b_j = clip(u_j) / sum clip(u): back to the edge functions
-    unclamped = total > 1e-12
-    inv_total = 1.0 / jnp.maximum(total, 1e-12)
-    g_b = [jnp.where(proper, g, 0.0) for g in g_bary]
-    dot = sum(g * b * inv_total for g, b in zip(g_b, clamped, strict=True))
-    g_u = []
-    for j in range(3):
-        g_clamped = inv_total * (g_b[j] - jnp.where(unclamped, dot, 0.0))
-        u = raw[j]
-        slope = jnp.where((u > 0) & (u < 1), 1.0, jnp.where((u == 0) | (u == 1), 0.5, 0.0))
-        g_u.append(g_clamped * slope)
-    # u_j = E_{j+1} / area2
-    g_edge = [g_u[(k + 2) % 3] * inv_area for k in range(3)]  # dL/dE_k
-    g_inv_area = sum(g_u[j] * edge_fn[(j + 1) % 3] for j in range(3))
-    ones = jnp.ones((points.shape[0], 1), dtype)
-    moments = []  # per edge: sum g_d t o, sum g_d o, and sum g_E (1, x, y)
-    for k in range(3):
-        t, ox, oy = t_o[k]
-        g = g_d2 * weights[k]
-        moments += [g * ox, g * oy, g * t * ox, g * t * oy, g_edge[k]]
-    moments.append(g_inv_area)
-    stacked = jnp.stack(moments)  # (16, P, K)
-    basis = jnp.concatenate([ones, points], 1)  # (P, 3): 1, x, y
-    sums = jnp.einsum("mpk,pb->mkb", stacked, basis)  # (16, K, 3)
-    g_tri = jnp.zeros(tri.shape, dtype)
-    for k in range(3):
-        nxt = (k + 1) % 3
-        s_ox, s_oy, s_tox, s_toy, s_e = (sums[5 * k + i] for i in range(5))
-        # d2 = |o|^2 with o = r - t e: d/dc_k = -2 (1 - t) o, d/dc_{k+1} = -2 t o
-        g_tri = g_tri.at[:, k, 0].add(-2 * (s_ox[:, 0] - s_tox[:, 0]))
-        g_tri = g_tri.at[:, k, 1].add(-2 * (s_oy[:, 0] - s_toy[:, 0]))
-        g_tri = g_tri.at[:, nxt, 0].add(-2 * s_tox[:, 0])
-        g_tri = g_tri.at[:, nxt, 1].add(-2 * s_toy[:, 0])
-        # E_k = ex ry - ey rx, r = p - c_k, e = c_{k+1} - c_k
-        ckx, cky = tri[:, k, 0], tri[:, k, 1]
-        ex, ey = tri[:, nxt, 0] - ckx, tri[:, nxt, 1] - cky
-        s0, sx, sy = s_e[:, 0], s_e[:, 1], s_e[:, 2]
-        sum_rx, sum_ry = sx - ckx * s0, sy - cky * s0
-        g_tri = g_tri.at[:, nxt, 0].add(sum_ry)
-        g_tri = g_tri.at[:, nxt, 1].add(-sum_rx)
-        g_tri = g_tri.at[:, k, 0].add(-sum_ry + ey * s0)
-        g_tri = g_tri.at[:, k, 1].add(-ex * s0 + sum_rx)
-    # inv_area = 1 / area2 (zero gradient for degenerate faces)
-    g_area = jnp.where(proper[0], -sums[15][:, 0] * inv_area[0] ** 2, 0.0)
-    (x0, y0), (x1, y1), (x2, y2) = ((tri[:, k, 0], tri[:, k, 1]) for k in range(3))
-    d_area = jnp.stack(
-        [jnp.stack([y1 - y2, x2 - x1], -1), jnp.stack([y2 - y0, x0 - x2], -1),
-         jnp.stack([y0 - y1, x1 - x0], -1)], 1
-    )  # fmt: skip
-    g_tri = g_tri + g_area[:, None, None] * d_area
-    return jnp.zeros_like(points), g_tri
-
-
-pixel_face_planes.defvjp(_planes_fwd, _planes_bwd)
-
-
-def _pixel_face_planes_autodiff(points, tri):
-    """`pixel_face_planes` differentiated by plain autodiff (the tests' reference)."""
-    return _planes_fwd(points, tri)[0]
+    inv_area = 1.0 / jnp.where(proper, area2, 1.0)
+    bary = [jnp.clip(edge_fn[(k + 1) % 3] * inv_area, 0.0, 1.0) for k in range(3)]
+    inv_total = 1.0 / jnp.maximum(bary[0] + bary[1] + bary[2], 1e-12)
+    bary = [jnp.where(proper, b * inv_total, 1.0 / 3) for b in bary]
+    return d2, inside, bary
 
 
 def logit_limit(eps: float) -> float:
