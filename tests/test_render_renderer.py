@@ -284,7 +284,7 @@ def test_gradients_equal_plain_autodiff(mode):
             lights=light,
             ambient=0.2,
             tile_size=4,
-            capacity=40,
+            capacity=64,
         )
         return jnp.sum(weights * r.color) + jnp.sum(r.alpha) + 0.1 * jnp.sum(r.depth)
 
