@@ -219,7 +219,40 @@ BASELINES |= {
     "mesh.normal_consistency_loss": _Built(mesh=_CUBE),
 }
 # -- render
-BASELINES |= {}
+_RENDER_TRIANGLE = [[-0.5, -0.5, 0.0], [0.5, -0.5, 0.0], [0.0, 0.5, 0.0]]
+
+
+class _RenderBaseline(dict):
+    """A render baseline whose mesh and camera are built on first use (after the sweep
+    has configured JAX): a triangle in front of a camera (`batch` views if given)."""
+
+    def __init__(self, batch=None, **values):
+        super().__init__(values)
+        self.batch = batch
+
+    def get(self, key, default=None):
+        import jax.numpy as jnp
+
+        from gfxlab.mesh import Mesh
+        from gfxlab.viewing import Camera
+
+        if key == "mesh":
+            return Mesh(jnp.array(_RENDER_TRIANGLE), jnp.array([[0, 1, 2]]))
+        if key == "camera":
+            eye = jnp.array([0.0, 0.0, 3.0])
+            return Camera(eye if self.batch is None else jnp.tile(eye, (self.batch, 1)))
+        return super().get(key, default)
+
+
+BASELINES |= {
+    "render.render": _RenderBaseline(),
+    "render.soft_rasterize": _RenderBaseline(gamma=0.1),
+    "render.tile_capacity": _RenderBaseline(),
+    "render.shard_cameras": _RenderBaseline(batch=2),
+    "render.interpolate": {"attributes": [[0.1, 0.2, 0.3, 0.4, 0.5]] * 4},
+    "render.antialias": {"image": [[[0.5] * 5] * 8] * 8},
+    "render.Rendering": {"color": [[[0.5] * 5] * 8] * 8, "attributes": [[[0.5] * 5] * 8] * 8},
+}
 _R, _mesh, _view = (importlib.import_module(f"gfxlab.{_m}") for _m in ("render", "mesh", "viewing"))
 BASELINES |= {  # the hidden-surface methods and shading
     "render.shade": {"lights": _R.PointLight([0.0, 0.0, 5.0])},

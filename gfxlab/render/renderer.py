@@ -21,6 +21,7 @@ position, texture coordinates, user attributes) is interpolated with them.
 
 from __future__ import annotations
 
+import contextvars
 import functools
 from typing import NamedTuple
 
@@ -30,7 +31,14 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
-from .._checks import as_float, check_finite, check_shape, static_shape, value_error_if
+from .._checks import (
+    as_float,
+    check_finite,
+    check_shape,
+    is_traced,
+    static_shape,
+    value_error_if,
+)
 from .._pixels import pixel_centers
 from ..mesh import Mesh, check_faces, vertex_normals
 from ..viewing import Camera
@@ -40,7 +48,7 @@ from ._tiles import (
     check_capacity,
     check_options,
     logit_limit,
-    pixel_face_terms,
+    pixel_face_planes,
     resolve_capacity,
     tiled,
 )
@@ -75,45 +83,86 @@ class Rendering(eqx.Module):
     barycentrics: Float[Array, "H W 3"]
     attributes: Float[Array, "H W A"] | None
 
+    def __check_init__(self):
+        if not hasattr(self.color, "shape") or len(self.color.shape) < 3:
+            raise ValueError(f"`color` must be an (H, W, C) array, got {self.color!r:.60}")
+        pixels = tuple(self.color.shape[:-1])
+        expected = {
+            "alpha": pixels,
+            "depth": pixels,
+            "normal": pixels + (3,),
+            "position": pixels + (3,),
+            "face_index": pixels,
+            "barycentrics": pixels + (3,),
+        }
+        if self.attributes is not None:
+            expected["attributes"] = pixels + tuple(self.attributes.shape[-1:])
+        for name, shape in expected.items():
+            value = getattr(self, name)
+            if value is None or not hasattr(value, "shape"):
+                raise TypeError(f"`{name}` must be an array of shape {shape}, got {value!r:.40}")
+            if tuple(value.shape) != shape:
+                raise ValueError(f"`{name}` must have shape {shape}, got {tuple(value.shape)}")
+        if not jnp.issubdtype(self.face_index.dtype, jnp.integer):
+            raise TypeError(f"`face_index` must be integer, got dtype {self.face_index.dtype}")
+        for name in ("color", "alpha", "depth", "normal", "position", "barycentrics"):
+            value = getattr(self, name)
+            if not is_traced(value) and not bool(jnp.all(jnp.isfinite(value))):
+                raise ValueError(f"`{name}` must be finite (no NaN or inf)")
+        if self.attributes is not None and not is_traced(self.attributes):
+            if not bool(jnp.all(jnp.isfinite(self.attributes))):
+                raise ValueError("`attributes` must be finite (no NaN or inf)")
+
 
 def _fragments(points, sub, slot_mask, ids, params, *, soft, eps):
     """Per-pixel aggregated attributes, coverage, depth, face and barycentrics."""
     tri, inv_w, attrs = sub  # (K, 3, 2), (K, 3), (K, 3, A)
     sigma, gamma, near, far, eps_bg = params
-    d2, inside, bary = pixel_face_terms(points, tri)
+    d2, inside, bary = pixel_face_planes(points, tri)
     cover = slot_mask[None] & inside
-    persp = bary * inv_w[None]
-    total = jnp.sum(persp, -1)
-    total = jnp.where(total > 0, total, 1.0)
-    persp = persp / total[..., None]
-    depth = 1.0 / total  # (P, K) eye depth
+    persp = [bary[v] * inv_w[None, :, v] for v in range(3)]  # three (P, K) planes
+    total = persp[0] + persp[1] + persp[2]
+    depth = 1.0 / jnp.where(total > 0, total, 1.0)  # (P, K) eye depth
+    persp = [q * depth for q in persp]
     nearest = jnp.argmin(jnp.where(cover, depth, jnp.inf), -1)
     hit = jnp.any(cover, -1)
-    b_near = jnp.where(
-        hit[:, None], jnp.take_along_axis(persp, nearest[:, None, None], 1)[:, 0], 0.0
-    )
+    # the nearest face as a one-hot mask: selects whose gradients need no scatter
+    pick = (jnp.arange(tri.shape[0])[None] == nearest[:, None]) & hit[:, None]
+    picked = [jnp.where(pick, q, 0.0) for q in persp]
+    b_near = jnp.stack([jnp.sum(q, -1) for q in picked], -1)  # zero where empty
     face = jnp.where(hit, ids[nearest], -1).astype(tri.dtype)
     if not soft:
-        values = jnp.einsum("pv,pva->pa", b_near, attrs[nearest])  # zero where empty
+        values = sum(picked[v] @ attrs[:, v, :] for v in range(3))  # zero where empty
         weight = hit.astype(tri.dtype)
         alpha = weight
-        out_depth = jnp.where(hit, jnp.take_along_axis(depth, nearest[:, None], 1)[:, 0], far)
+        out_depth = jnp.where(hit, jnp.sum(jnp.where(pick, depth, 0.0), -1), far)
     else:
         keep = slot_mask[None] & (inside | (d2 <= sigma * logit_limit(eps)))
         x = jnp.where(inside, d2, -d2) / sigma
         alpha = -jnp.expm1(jnp.sum(jnp.where(keep, jax.nn.log_sigmoid(-x), 0.0), -1))
         z = (far - depth) / (far - near)
         logits = jnp.where(keep, jax.nn.log_sigmoid(x) + z / gamma, -jnp.inf)
-        logits = jnp.concatenate([logits, jnp.broadcast_to(eps_bg / gamma, (len(points), 1))], 1)
-        w = jax.nn.softmax(logits, -1)
-        w_faces = w[:, :-1]
-        weight = 1.0 - w[:, -1]
-        summed = jnp.einsum("pk,pkv,kva->pa", w_faces, persp, attrs)
+        top = jax.lax.stop_gradient(jnp.maximum(jnp.max(logits, -1), eps_bg / gamma))
+        w_faces = jnp.exp(logits - top[:, None])
+        w_back = jnp.exp(eps_bg / gamma - top)
+        norm = 1.0 / (jnp.sum(w_faces, -1) + w_back)
+        w_faces, w_back = w_faces * norm[:, None], w_back * norm
+        weight = 1.0 - w_back
+        summed = sum((w_faces * persp[v]) @ attrs[:, v, :] for v in range(3))
         some = weight > 1e-30
         values = jnp.where(some[:, None], summed / jnp.where(some, weight, 1.0)[:, None], 0.0)
-        out_depth = jnp.sum(w_faces * jnp.where(keep, depth, 0.0), -1) + w[:, -1] * far
+        out_depth = jnp.sum(w_faces * jnp.where(keep, depth, 0.0), -1) + w_back * far
     extra = jnp.stack([weight, alpha, out_depth, face], -1)
     return jnp.concatenate([values, extra, b_near], -1)
+
+
+def _int_array(x, name):
+    if x is None:
+        raise TypeError(f"`{name}` must be an integer array, got None")
+    x = jnp.asarray(x)
+    if not jnp.issubdtype(x.dtype, jnp.integer):
+        raise TypeError(f"`{name}` must be an integer array, got dtype {x.dtype}")
+    return x
 
 
 def interpolate(
@@ -129,10 +178,12 @@ def interpolate(
     """
     attributes = as_float(attributes, "attributes")
     check_shape(attributes, "attributes", (None, None))
+    attributes = check_finite(attributes, "attributes")
     faces = check_faces(faces, attributes.shape[0])
-    face_index = jnp.asarray(face_index)
+    face_index = _int_array(face_index, "face_index")
     barycentrics = as_float(barycentrics, "barycentrics").astype(attributes.dtype)
     check_shape(barycentrics, "barycentrics", tuple(face_index.shape) + (3,))
+    barycentrics = check_finite(barycentrics, "barycentrics")
     corners = attributes[faces[jnp.maximum(face_index, 0)]]  # (..., 3, A)
     values = jnp.einsum("...v,...va->...a", barycentrics, corners)
     return jnp.where((face_index >= 0)[..., None], values, 0.0)
@@ -197,6 +248,24 @@ def antialias(
     is blended towards the other by the distance of the crossing from the midpoint.
     The result is differentiable in the edge positions `triangles_2d` (pixels, y up).
     """
+    image = as_float(image, "image")
+    check_shape(image, "image", (None, None, None))
+    face_index = _int_array(face_index, "face_index")
+    check_shape(face_index, "face_index", image.shape[:2])
+    depth = as_float(depth, "depth").astype(image.dtype)
+    check_shape(depth, "depth", image.shape[:2])
+    triangles_2d = as_float(triangles_2d, "triangles_2d").astype(image.dtype)
+    check_shape(triangles_2d, "triangles_2d", (None, 3, 2))
+    faces = check_faces(faces, 2**31 - 1)
+    check_shape(faces, "faces", (triangles_2d.shape[0], 3))
+    image = check_finite(image, "image")
+    depth = check_finite(depth, "depth")
+    triangles_2d = check_finite(triangles_2d, "triangles_2d")
+    return _antialias(image, face_index, depth, triangles_2d, faces)
+
+
+@jax.jit
+def _antialias(image, face_index, depth, triangles_2d, faces):
     height, width = face_index.shape
     points = pixel_centers((height, width), triangles_2d.dtype)
     out = image
@@ -235,6 +304,7 @@ class _Config(NamedTuple):
     cull_backfaces: bool
     batched_vertices: bool
     batched_camera: bool
+    reference: bool = False  # plain autodiff, every pixel against every face (tests)
 
 
 def _corner_attributes(mesh, vertices, attributes):
@@ -266,17 +336,18 @@ def _render_view(mesh, vertices, camera, extras, config: _Config):
     )
     attrs, channels = _corner_attributes(mesh, vertices, attributes)
     margin = jnp.sqrt(sigma * logit_limit(config.eps)) if config.soft else jnp.zeros((), tri.dtype)
-    kernel = functools.partial(_fragments, params=params, soft=config.soft, eps=config.eps)
     out, max_count = tiled(
-        lambda pts, sub, mask, ids: kernel(pts, sub, mask, ids),
+        functools.partial(_fragments, soft=config.soft, eps=config.eps),
         tri,
         valid,
         (tri, inv_w, attrs),
+        params,
         config.shape,
         margin=margin,
         tile_size=config.tile_size,
         capacity=config.capacity,
         tiles_per_step=config.tiles_per_step,
+        reference=config.reference,
     )
     size = attrs.shape[-1]
     values, (weight, alpha, depth, face) = out[..., :size], [out[..., size + k] for k in range(4)]
@@ -297,7 +368,7 @@ def _render_view(mesh, vertices, camera, extras, config: _Config):
         )
     color = weight[..., None] * color + (1.0 - weight[..., None]) * background
     if not config.soft and config.antialias:
-        both = antialias(
+        both = _antialias(
             jnp.concatenate([color, alpha[..., None]], -1), face, depth, tri, mesh.faces
         )
         color, alpha = both[..., :-1], both[..., -1]
@@ -477,13 +548,15 @@ def render(
         if mesh.colors is not None
         else (mesh.texture.shape[-1] if mesh.texture is not None else 3)
     )
-    background = as_float(background, "background").astype(dtype)
+    background = check_finite(as_float(background, "background").astype(dtype), "background")
+    ambient = check_finite(as_float(ambient, "ambient"), "ambient")
+    eps_background = check_finite(as_float(eps_background, "eps_background"), "eps_background")
     if background.ndim > 1 or background.size not in (1, channels):
         raise ValueError(
             f"`background` must be a scalar or a colour ({channels},), got shape {background.shape}"
         )
     background = jnp.broadcast_to(background, (channels,))
-    params = (sigma, gamma, jnp.asarray(eps_background, dtype))
+    params = (sigma, gamma, eps_background.astype(dtype))
     soft = mode == "soft"
     capacity = _render_capacity(
         mesh,
@@ -509,6 +582,7 @@ def render(
         bool(cull_backfaces),
         vertices.ndim == 3,
         batched_camera,
+        _REFERENCE.get(),
     )
     extras = (
         attributes,
@@ -520,8 +594,23 @@ def render(
     )
     result, max_count = _render_jit(mesh, vertices, camera, extras, config=config)
     return eqx.tree_at(
-        lambda r: r.color, result, check_capacity(result.color, max_count, capacity, tile_size)
+        lambda r: r.color,
+        result,
+        check_capacity(result.color, max_count, capacity, tile_size, mesh.num_faces),
     )
+
+
+_REFERENCE = contextvars.ContextVar("gfxlab_render_reference", default=False)
+
+
+def _reference_render(*args, **kwargs) -> Rendering:
+    """`render` with every pixel against every face in one call, differentiated by plain
+    autodiff (no tiles, no custom VJP): the reference the tests compare gradients with."""
+    token = _REFERENCE.set(True)
+    try:
+        return render(*args, **kwargs)
+    finally:
+        _REFERENCE.reset(token)
 
 
 def shard_cameras(camera: Camera, devices=None) -> Camera:

@@ -105,7 +105,8 @@ def soft_silhouette(
     check_shape(vertices_2d, "vertices_2d", (None, 2))
     vertices_2d = check_finite(vertices_2d, "vertices_2d")
     faces = check_faces(faces, vertices_2d.shape[0])
-    sigma = jnp.asarray(sigma, vertices_2d.dtype)
+    sigma = as_float(sigma, "sigma").astype(vertices_2d.dtype)
+    check_shape(sigma, "sigma", ())
     sigma, tile_size, capacity, tiles_per_step = check_options(
         sigma, eps, tile_size, capacity, tiles_per_step
     )
@@ -130,7 +131,17 @@ def soft_silhouette(
         capacity=capacity,
         tiles_per_step=tiles_per_step,
     )
-    return check_capacity(image, max_count, capacity, tile_size)
+    return check_capacity(image, max_count, capacity, tile_size, faces.shape[0])
+
+
+def _silhouette_kernel(points, tri, slot_mask, ids, sigma, *, eps):
+    return _silhouette_pixels(points, tri, slot_mask, sigma, eps)[:, None]
+
+
+def _color_kernel(points, faces, slot_mask, ids, params, *, eps):
+    sigma, gamma, near, far, background, eps_bg = params
+    full = (sigma, gamma, eps, near, far, background, eps_bg)
+    return _color_pixels(points, faces, slot_mask, full)
 
 
 @functools.partial(
@@ -143,10 +154,11 @@ def _silhouette_core(
     valid = jnp.ones(tri.shape[0], bool)
     margin = jnp.sqrt(sigma * logit_limit(eps))
     image, max_count = tiled(
-        lambda pts, sub, mask, ids: _silhouette_pixels(pts, sub, mask, sigma, eps)[:, None],
+        functools.partial(_silhouette_kernel, eps=eps),
         tri,
         valid,
         tri,
+        sigma,
         shape,
         margin=margin,
         tile_size=tile_size,
@@ -196,7 +208,8 @@ def tile_capacity(
     height, width = static_shape(shape)
     if not isinstance(slack, float | int) or not slack >= 1:
         raise ValueError(f"`slack` must be a number >= 1, got {slack!r}")
-    sigma = jnp.asarray(sigma, mesh.vertices.dtype)
+    sigma = as_float(sigma, "sigma").astype(mesh.vertices.dtype)
+    check_shape(sigma, "sigma", ())
     sigma, tile_size, _, _ = check_options(sigma, eps, tile_size, None, 1)
     project = functools.partial(project_faces, shape=(height, width))
     if camera.eye.ndim == 2:
@@ -250,15 +263,20 @@ def soft_rasterize(
     background counts as the far plane).
     """
     height, width = static_shape(shape)
+    check_mesh_camera(mesh, camera)
+    ambient = check_finite(as_float(ambient, "ambient"), "ambient")
+    eps_background = check_finite(as_float(eps_background, "eps_background"), "eps_background")
     tri, inv_depth, colors, valid = _project_mesh(mesh, camera, (height, width), light, ambient)
     dtype = tri.dtype
-    sigma = jnp.asarray(sigma, dtype)
-    gamma = jnp.asarray(gamma, dtype)
+    sigma = as_float(sigma, "sigma").astype(dtype)
+    gamma = as_float(gamma, "gamma").astype(dtype)
+    check_shape(sigma, "sigma", ())
+    check_shape(gamma, "gamma", ())
     sigma, tile_size, capacity, tiles_per_step = check_options(
         sigma, eps, tile_size, capacity, tiles_per_step
     )
     gamma = value_error_if(gamma, ~(gamma > 0), "`gamma` must be > 0")
-    background = as_float(background, "background").astype(dtype)
+    background = check_finite(as_float(background, "background").astype(dtype), "background")
     check_shape(background, "background", (colors.shape[-1],))
     margin = jnp.sqrt(sigma * logit_limit(eps))
     capacity = resolve_capacity(
@@ -270,7 +288,7 @@ def soft_rasterize(
         camera.near.astype(dtype),
         camera.far.astype(dtype),
         background,
-        jnp.asarray(eps_background, dtype),
+        eps_background.astype(dtype),
     )
     out, max_count = _color_core(
         tri,
@@ -284,7 +302,7 @@ def soft_rasterize(
         capacity=capacity,
         tiles_per_step=tiles_per_step,
     )
-    out = check_capacity(out, max_count, capacity, tile_size)
+    out = check_capacity(out, max_count, capacity, tile_size, mesh.num_faces)
     return out[..., :-1], out[..., -1]
 
 
@@ -305,14 +323,13 @@ def _color_core(
     tiles_per_step,
     binned=True,
 ):
-    sigma, gamma, near, far, background, eps_bg = params
-    margin = jnp.sqrt(sigma * logit_limit(eps))
-    full = (sigma, gamma, eps, near, far, background, eps_bg)
+    margin = jnp.sqrt(params[0] * logit_limit(eps))
     return tiled(
-        lambda pts, sub, mask, ids: _color_pixels(pts, sub, mask, full),
+        functools.partial(_color_kernel, eps=eps),
         tri,
         valid,
         (tri, inv_depth, colors),
+        params,
         shape,
         margin=margin,
         tile_size=tile_size,
