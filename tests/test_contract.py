@@ -659,6 +659,8 @@ ACCEPTED = {
     "curves.NURBS control_points shape",
     "curves.chord_length_parameters points shape",
     "curves.fit_bezier points shape",
+    "curves.fit_bspline points shape",
+    "render.Rendering attributes none",  # no per-pixel attributes: a valid Rendering
 }
 # Documented drivers that run compiled steps in a Python loop: no jit sample.
 DRIVERS = {"fit.fit"}
