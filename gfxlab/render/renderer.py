@@ -32,6 +32,7 @@ import numpy as np
 from jaxtyping import Array, Float, Int
 
 from .._checks import (
+    MAX_ELEMENTS,
     as_float,
     check_finite,
     check_shape,
@@ -256,7 +257,7 @@ def antialias(
     check_shape(depth, "depth", image.shape[:2])
     triangles_2d = as_float(triangles_2d, "triangles_2d").astype(image.dtype)
     check_shape(triangles_2d, "triangles_2d", (None, 3, 2))
-    faces = check_faces(faces, 2**31 - 1)
+    faces = check_faces(faces, MAX_ELEMENTS)  # indices of any vertex array
     check_shape(faces, "faces", (triangles_2d.shape[0], 3))
     image = check_finite(image, "image")
     depth = check_finite(depth, "depth")
