@@ -12,6 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 from jax.test_util import check_grads
+from render_scenes import tiny_scene
 from scipy.ndimage import map_coordinates
 
 from gfxlab import brdf as B
@@ -208,31 +209,6 @@ def test_texture_sampling_is_bilinear_and_rendered_through_uvs():
     # differentiable in the texture
     g = jax.grad(lambda t: jnp.sum(R.sample_texture(t, jnp.asarray(uv))))(jnp.asarray(texture))
     assert np.all(np.isfinite(g)) and float(jnp.sum(g)) == pytest.approx(len(uv) * 3)
-
-
-def tiny_scene():
-    vertices = jnp.array(
-        [
-            [-0.5, -0.4, 0.0],
-            [0.6, -0.3, 0.1],
-            [0.0, 0.6, -0.1],
-            [-0.2, -0.1, 0.3],
-            [0.5, 0.3, 0.4],
-            [-0.3, 0.5, 0.2],
-        ]
-    )
-    faces = jnp.array([[0, 1, 2], [3, 4, 5]])
-    colors = jnp.array(
-        [
-            [1.0, 0.2, 0.1],
-            [0.9, 0.8, 0.1],
-            [0.1, 0.9, 0.5],
-            [0.2, 0.3, 1.0],
-            [0.5, 0.1, 0.9],
-            [0.3, 0.7, 0.2],
-        ]
-    )
-    return vertices, faces, colors
 
 
 @pytest.mark.parametrize("mode", ["soft", "hard"])

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from jax.test_util import check_grads
 from matplotlib.path import Path
+from render_scenes import tiny_scene
 
 from gfxlab import render as R
 from gfxlab.mesh import Mesh, icosphere
@@ -161,27 +162,7 @@ def test_soft_converges_to_zbuffer():
 
 
 def test_check_grads_of_the_soft_rasterizer():
-    vertices = jnp.array(
-        [
-            [-0.5, -0.4, 0.0],
-            [0.6, -0.3, 0.1],
-            [0.0, 0.6, -0.1],
-            [-0.2, -0.1, 0.3],
-            [0.5, 0.3, 0.4],
-            [-0.3, 0.5, 0.2],
-        ]
-    )
-    faces = jnp.array([[0, 1, 2], [3, 4, 5]])
-    colors = jnp.array(
-        [
-            [1.0, 0.2, 0.1],
-            [0.9, 0.8, 0.1],
-            [0.1, 0.9, 0.5],
-            [0.2, 0.3, 1.0],
-            [0.5, 0.1, 0.9],
-            [0.3, 0.7, 0.2],
-        ]
-    )
+    vertices, faces, colors = tiny_scene()
     eye = jnp.array([0.2, 0.1, 2.5])
 
     @jax.jit
