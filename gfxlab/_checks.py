@@ -418,7 +418,7 @@ def check_key(key, name: str = "key", *, needed: bool = True):
     raw = dtype == np.uint32 and shape == (2,)
     if not isinstance(key, jax.Array | np.ndarray) or not (typed and shape == () or raw):
         raise TypeError(
-            f"`{name}` must be a single jax.random key (e.g. `jax.random.key(0)`), got "
+            f"`{name}` must be a jax.random key (one key, e.g. `jax.random.key(0)`), got "
             f"{type(key).__name__} {getattr(key, 'dtype', '')}{list(shape or [])}"
         )
     return key

@@ -142,8 +142,12 @@ def _circle_from_octant(octant: np.ndarray, radius: int, center: jax.Array) -> j
 @functools.lru_cache(maxsize=64)
 def _circle_loop(radius: int) -> np.ndarray:
     """The pixels of the midpoint circle of `radius` about the origin (cached, read-only)."""
-    loop = _circle_from_octant(_static_circle_octant(radius), radius, np.zeros(2, np.int64))
-    loop = np.asarray(loop)
+    # NumPy only: this may run while a caller's `jit` traces (no device_put there).
+    if radius == 0:
+        loop = np.zeros((1, 2), np.int32)
+    else:
+        loop = _symmetric_loop(_circle_quadrant_path(_static_circle_octant(radius)))
+        loop = loop.astype(np.int32)
     loop.flags.writeable = False
     return loop
 
