@@ -298,18 +298,12 @@ def _tree_usage(root: int) -> tuple[int, float]:
     """
     if _children(root) is None:
         return _tree_usage_by_scan(root)
-    rss = ticks = 0
-    stack, seen = [root], set()
-    while stack:
-        pid = stack.pop()
-        if pid in seen:
-            continue
-        seen.add(pid)
+
+    def usage_of(pid):
         usage = _stat_usage(pid)
-        if usage is not None:
-            rss, ticks = rss + usage[1], ticks + usage[2]
-        stack.extend(_children(pid) or [])
-    return rss * os.sysconf("SC_PAGE_SIZE"), ticks / os.sysconf("SC_CLK_TCK")
+        return (0, 0) if usage is None else usage[1:]
+
+    return _walk_tree(root, lambda pid: _children(pid) or [], usage_of)
 
 
 def _tree_usage_by_scan(root: int) -> tuple[int, float]:
@@ -321,6 +315,12 @@ def _tree_usage_by_scan(root: int) -> tuple[int, float]:
             if found is not None:
                 children.setdefault(found[0], []).append(int(entry.name))
                 usage[int(entry.name)] = found[1:]
+    return _walk_tree(root, lambda pid: children.get(pid, []), lambda pid: usage.get(pid, (0, 0)))
+
+
+def _walk_tree(root: int, children_of, usage_of) -> tuple[int, float]:
+    """(bytes resident, CPU seconds) summed over `root` and its descendants, given each
+    process's children and its (resident pages, CPU ticks)."""
     rss = ticks = 0
     stack, seen = [root], set()
     while stack:
@@ -328,9 +328,9 @@ def _tree_usage_by_scan(root: int) -> tuple[int, float]:
         if pid in seen:
             continue
         seen.add(pid)
-        pages, cpu = usage.get(pid, (0, 0))
+        pages, cpu = usage_of(pid)
         rss, ticks = rss + pages, ticks + cpu
-        stack.extend(children.get(pid, []))
+        stack.extend(children_of(pid))
     return rss * os.sysconf("SC_PAGE_SIZE"), ticks / os.sysconf("SC_CLK_TCK")
 
 
