@@ -90,15 +90,8 @@ def _check_unit_interval(u: jax.Array, name: str = "u") -> jax.Array:
     )
 
 
-def _as_float(x, name: str) -> jax.Array:
-    """`as_float(x, name)`, returning a floating JAX array as it is (no dispatch)."""
-    if isinstance(x, jax.Array) and jnp.issubdtype(x.dtype, jnp.floating):
-        return x
-    return as_float(x, name)
-
-
 def _control_points(control_points, name: str = "control_points") -> jax.Array:
-    cp = _as_float(control_points, name)
+    cp = as_float(control_points, name)
     if cp.ndim < 2 or cp.shape[-2] < 1:
         raise ValueError(
             f"`{name}` must have shape (..., n+1, d): at least one point of dimension d, "

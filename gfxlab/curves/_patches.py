@@ -9,14 +9,13 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._checks import check_shape, static_int
+from .._checks import as_float, check_shape, static_int
 from .._resources import data_file
 from ..mesh import Mesh
 from ._bezier import _bernstein
 from ._common import (
     MAX_DEGREE,
     MAX_RESOLUTION,
-    _as_float,
     _check_unit_interval,
     _float_dtype,
     _floats,
@@ -43,7 +42,7 @@ def bezier_patch(
     **Raises:** `ValueError` for bad shapes, non-finite nets or parameters outside
     `[0, 1]`.
     """
-    net = _as_float(control_net, "control_net")
+    net = as_float(control_net, "control_net")
     if net.ndim < 3:
         raise ValueError(
             f"`control_net` must have shape (..., m+1, n+1, d), got {tuple(net.shape)}"
@@ -85,7 +84,7 @@ def patch_mesh(control_nets: Float[ArrayLike, "P m+1 n+1 3"], resolution: int) -
     **Raises:** `ValueError` for a bad shape, a non-finite net or a resolution out of
     range; `TypeError` for a non-int resolution or a `None` net.
     """
-    nets = _as_float(control_nets, "control_nets")
+    nets = as_float(control_nets, "control_nets")
     if nets.ndim == 3:
         nets = nets[None]
     if nets.ndim != 4 or nets.shape[-1] != 3:
