@@ -266,9 +266,7 @@ def test_gradients_equal_plain_autodiff(mode):
 
     args = (sphere.vertices, colors)
     ours = jax.jit(jax.grad(lambda *a: loss(*a, R.render), argnums=(0, 1)))(*args)
-    ref = jax.jit(jax.grad(lambda *a: loss(*a, R.renderer._reference_render), argnums=(0, 1)))(
-        *args
-    )
+    ref = jax.jit(jax.grad(lambda *a: loss(*a, R.render_dense), argnums=(0, 1)))(*args)
     for g, r in zip(ours, ref, strict=True):
         assert float(jnp.abs(r).max()) > 1e-3
         np.testing.assert_allclose(g, r, rtol=1e-8, atol=1e-10)
@@ -356,3 +354,36 @@ def test_bad_inputs():
         R.interpolate(colors, faces, jnp.zeros((2, 2), int), jnp.zeros((2, 2, 2)))
     with pytest.raises(ValueError, match="devices"):
         R.shard_cameras(camera)
+
+
+def test_nan_ambient_is_an_error_lit_or_not_eagerly_and_under_jit():
+    """The ambient term only reaches a lit image, but a NaN `ambient` is an error always
+    (under jit too: the check must not be dead code)."""
+    vertices, faces, colors = tiny_scene()
+    mesh = Mesh(vertices, faces, colors)
+    camera = Camera(jnp.array([0.2, 0.1, 2.5]), near=0.5, far=5.0)
+    light = R.DirectionalLight([0.0, 0.0, 1.0])
+    for lights in (None, light):
+        with pytest.raises(ValueError, match="`ambient` must be finite"):
+            R.render(mesh, camera, (8, 8), lights=lights, ambient=jnp.nan)
+        run = jax.jit(
+            lambda a, lights=lights: R.render(mesh, camera, (8, 8), lights=lights, ambient=a)
+        )
+        with pytest.raises(Exception, match="`ambient` must be finite"):
+            jax.block_until_ready(run(jnp.asarray(jnp.nan)).color)
+
+
+def test_render_dense_bad_inputs():
+    vertices, faces, colors = tiny_scene()
+    mesh = Mesh(vertices, faces, colors)
+    camera = Camera(jnp.array([0.2, 0.1, 2.5]), near=0.5, far=5.0)
+    with pytest.raises(TypeError, match="mesh"):
+        R.render_dense(vertices, camera, (8, 8))
+    with pytest.raises(TypeError, match="camera"):
+        R.render_dense(mesh, None, (8, 8))
+    with pytest.raises(ValueError, match="mode"):
+        R.render_dense(mesh, camera, (8, 8), mode="wire")
+    with pytest.raises(ValueError, match="sigma"):
+        R.render_dense(mesh, camera, (8, 8), sigma=0.0)
+    with pytest.raises(ValueError, match="tile_size"):
+        R.render_dense(mesh, camera, (8, 8), tile_size=0)

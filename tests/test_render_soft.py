@@ -51,7 +51,7 @@ def test_tiled_silhouette_equals_dense(maybe_jit):
     faces = jnp.arange(45).reshape(15, 3)
     run = maybe_jit(R.soft_silhouette, static_argnames=("shape", "tile_size", "capacity"))
     tiled = run(vertices, faces, shape, sigma=2.0, tile_size=8, capacity=16)
-    dense = R._dense_soft_silhouette(vertices, faces, shape, sigma=2.0)
+    dense = R.soft_silhouette_dense(vertices, faces, shape, sigma=2.0)
     np.testing.assert_allclose(tiled, dense, atol=1e-6)
     assert float(dense.max()) > 0.9
 
@@ -71,7 +71,7 @@ def test_silhouette_gradients_equal_plain_autodiff():
         return jnp.sum(weights * image)
 
     def dense(v, sigma):
-        return jnp.sum(weights * R._dense_soft_silhouette(v, faces, shape, sigma=sigma))
+        return jnp.sum(weights * R.soft_silhouette_dense(v, faces, shape, sigma=sigma))
 
     sigma = jnp.asarray(1.5)
     ours = jax.grad(tiled, argnums=(0, 1))(vertices, sigma)
@@ -94,7 +94,7 @@ def test_rasterizer_gradients_equal_plain_autodiff():
         if tiled:
             rgba, depth = R.soft_rasterize(m, c, shape, tile_size=4, capacity=64, **kw)
         else:
-            rgba, depth = R._dense_soft_rasterize(m, c, shape, **kw)
+            rgba, depth = R.soft_rasterize_dense(m, c, shape, **kw)
         return jnp.sum(weights * rgba) + 0.1 * jnp.sum(depth)
 
     args = (mesh.vertices, mesh.colors, camera.eye)
@@ -125,7 +125,7 @@ def test_tiled_rasterizer_equals_dense():
     rgba, depth = jax.jit(
         lambda m, c: R.soft_rasterize(m, c, shape, tile_size=8, capacity=80, **kw)
     )(mesh, camera)
-    rgba_ref, depth_ref = R._dense_soft_rasterize(mesh, camera, shape, **kw)
+    rgba_ref, depth_ref = R.soft_rasterize_dense(mesh, camera, shape, **kw)
     np.testing.assert_allclose(rgba, rgba_ref, atol=1e-6)
     np.testing.assert_allclose(depth, depth_ref, atol=1e-6)
     assert rgba.shape == shape + (4,) and depth.shape == shape
@@ -284,3 +284,23 @@ def test_bad_inputs():
         R.soft_rasterize(mesh, None, (8, 8), sigma=1.0, gamma=1.0)
     with pytest.raises(ValueError, match="background"):
         R.soft_rasterize(mesh, camera, (8, 8), sigma=1.0, gamma=1.0, background=jnp.zeros(2))
+
+
+def test_dense_references_bad_inputs():
+    vertices = jnp.array([[1.0, 1.0], [5.0, 1.0], [1.0, 5.0]])
+    faces = jnp.array([[0, 1, 2]])
+    with pytest.raises(ValueError, match="vertices_2d"):
+        R.soft_silhouette_dense(vertices.at[1, 0].set(jnp.nan), faces, (8, 8), sigma=1.0)
+    with pytest.raises(ValueError, match="faces"):
+        R.soft_silhouette_dense(vertices, jnp.array([[0, 1, 3]]), (8, 8), sigma=1.0)
+    with pytest.raises(ValueError, match="sigma"):
+        R.soft_silhouette_dense(vertices, faces, (8, 8), sigma=0.0)
+    with pytest.raises(TypeError, match="sigma"):
+        R.soft_silhouette_dense(vertices, faces, (8, 8), sigma=None)
+    mesh, camera = sphere_scene()
+    with pytest.raises(TypeError, match="mesh"):
+        R.soft_rasterize_dense(vertices, camera, (8, 8), sigma=1.0, gamma=1.0)
+    with pytest.raises(ValueError, match="gamma"):
+        R.soft_rasterize_dense(mesh, camera, (8, 8), sigma=1.0, gamma=0.0)
+    with pytest.raises(ValueError, match="background"):
+        R.soft_rasterize_dense(mesh, camera, (8, 8), sigma=1.0, gamma=1.0, background=jnp.zeros(2))

@@ -9,6 +9,9 @@ textures, and the classic hidden-surface algorithms.
   `PointLight`/`DirectionalLight`, `sample_texture` (bilinear, differentiable).
 - Soft rasterization building blocks (module `soft`): `soft_silhouette` of 2D
   triangles, the flat-shaded `soft_rasterize`, `tile_capacity`.
+- Dense references (`render_dense`, `soft_silhouette_dense`, `soft_rasterize_dense`):
+  every pixel against every face with plain autodiff, O(pixels x faces), what the tiled
+  functions are tested against.
 - Hidden-surface removal (module `hsr`): `zbuffer`, `painter`, `warnock`, `scanline`, `raycast`
   on screen-space triangle scenes made by `screen_scene`.
 
@@ -27,20 +30,21 @@ from .hsr import (
     warnock,
     zbuffer,
 )
-from .renderer import Rendering, antialias, interpolate, render, shard_cameras
+from .renderer import Rendering, antialias, interpolate, render, render_dense, shard_cameras
 from .shading import DirectionalLight, PointLight, sample_texture, shade
 from .soft import (
     _color_core,
-    _dense_soft_rasterize,
-    _dense_soft_silhouette,
     _project_mesh,
     soft_rasterize,
+    soft_rasterize_dense,
     soft_silhouette,
+    soft_silhouette_dense,
     tile_capacity,
 )
 
 __all__ = [
     "render",
+    "render_dense",
     "Rendering",
     "interpolate",
     "antialias",
@@ -50,7 +54,9 @@ __all__ = [
     "PointLight",
     "DirectionalLight",
     "soft_silhouette",
+    "soft_silhouette_dense",
     "soft_rasterize",
+    "soft_rasterize_dense",
     "tile_capacity",
     "screen_scene",
     "VisibilityResult",
@@ -63,5 +69,5 @@ __all__ = [
     "WARNOCK_CODES",
 ]
 
-# private helpers re-exported for the tests and the benchmark (dense references)
-_ = (_color_core, _dense_soft_rasterize, _dense_soft_silhouette, _project_mesh)
+# private helpers re-exported for the benchmark (tests/benchmarks/bench_render.py)
+_ = (_color_core, _project_mesh)

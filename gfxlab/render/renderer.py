@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import contextvars
 import functools
-from typing import NamedTuple
 
 import equinox as eqx
 import jax
@@ -37,25 +36,29 @@ from .._checks import (
     check_finite,
     check_shape,
     is_traced,
-    static_shape,
-    value_error_if,
 )
 from .._pixels import pixel_centers
 from ..mesh import Mesh, check_faces, vertex_normals
 from ..viewing import Camera
-from ._project import check_mesh_camera, project_faces
-from ._tiles import (
-    any_traced,
-    check_capacity,
-    check_options,
-    logit_limit,
-    pixel_face_planes,
-    resolve_capacity,
-    tiled,
+from ._inputs import (
+    RenderConfig,
+    batched_camera,
+    check_render_inputs,
+    render_config,
+    render_options,
 )
+from ._project import check_mesh_camera, project_faces
+from ._tiles import check_capacity, logit_limit, pixel_face_planes, tiled
 from .shading import _check_lights, sample_texture, shade
 
-__all__ = ["render", "Rendering", "interpolate", "antialias", "shard_cameras"]
+__all__ = [
+    "render",
+    "render_dense",
+    "Rendering",
+    "interpolate",
+    "antialias",
+    "shard_cameras",
+]
 
 
 class Rendering(eqx.Module):
@@ -294,20 +297,6 @@ def _antialias(image, face_index, depth, triangles_2d, faces):
     return out
 
 
-class _Config(NamedTuple):
-    shape: tuple[int, int]
-    soft: bool
-    eps: float
-    tile_size: int
-    capacity: int
-    tiles_per_step: int
-    antialias: bool
-    cull_backfaces: bool
-    batched_vertices: bool
-    batched_camera: bool
-    reference: bool = False  # plain autodiff, every pixel against every face (tests)
-
-
 def _corner_attributes(mesh, vertices, attributes):
     """Per-corner attributes `(F, 3, A)`: albedo | normal | position | uv | user."""
     faces = mesh.faces
@@ -328,7 +317,7 @@ def _corner_attributes(mesh, vertices, attributes):
     return jnp.concatenate(parts, -1), albedo.shape[-1]
 
 
-def _render_view(mesh, vertices, camera, extras, config: _Config):
+def _render_view(mesh, vertices, camera, extras, config: RenderConfig):
     attributes, lights, brdf, ambient, background, (sigma, gamma, eps_bg) = extras
     dtype = vertices.dtype
     params = (sigma, gamma, camera.near.astype(dtype), camera.far.astype(dtype), eps_bg)
@@ -380,7 +369,7 @@ def _render_view(mesh, vertices, camera, extras, config: _Config):
 
 
 @functools.partial(jax.jit, static_argnames=("config",))
-def _render_jit(mesh, vertices, camera, extras, *, config: _Config):
+def _render_jit(mesh, vertices, camera, extras, *, config: RenderConfig):
     def one(v, c):
         return _render_view(mesh, v, c, extras, config)
 
@@ -389,97 +378,6 @@ def _render_jit(mesh, vertices, camera, extras, *, config: _Config):
         result, counts = jax.vmap(one, in_axes=axes)(vertices, camera)
         return result, jnp.max(counts)
     return one(vertices, camera)
-
-
-def _batched_camera(camera: Camera, batch: int) -> Camera:
-    """Every field of a batched camera with the leading batch axis."""
-    fields = {}
-    for name in ("eye", "target", "up", "fov_y", "aspect", "near", "far"):
-        value = getattr(camera, name)
-        core = (3,) if name in ("eye", "target", "up") else ()
-        if value.shape not in (core, (batch,) + core):
-            raise ValueError(
-                f"`camera.{name}` must have shape {core} or {(batch,) + core} for a "
-                f"batch of {batch}, got {value.shape}"
-            )
-        fields[name] = jnp.broadcast_to(value, (batch,) + core)
-    eye = fields.pop("eye")
-    return Camera(eye, fields.pop("target"), fields.pop("up"), **fields)
-
-
-def _check_render_inputs(mesh, camera, vertices, attributes):
-    check_mesh_camera(mesh, camera)
-    if vertices is None:
-        vertices = mesh.vertices
-    else:
-        vertices = as_float(vertices, "vertices")
-        check_shape(vertices, "vertices", (..., mesh.num_vertices, 3))
-        if vertices.ndim not in (2, 3):
-            raise ValueError(
-                f"`vertices` must have shape (V, 3) or (B, V, 3), got {vertices.shape}"
-            )
-        vertices = check_finite(vertices, "vertices")
-    batch = {vertices.shape[0]} if vertices.ndim == 3 else set()
-    if camera.eye.ndim == 2 or any(
-        getattr(camera, n).ndim >= 1 for n in ("fov_y", "aspect", "near", "far")
-    ):
-        sizes = {
-            getattr(camera, n).shape[0]
-            for n in ("eye", "target", "up")
-            if getattr(camera, n).ndim == 2
-        }
-        sizes |= {
-            getattr(camera, n).shape[0]
-            for n in ("fov_y", "aspect", "near", "far")
-            if getattr(camera, n).ndim == 1
-        }
-        batch |= sizes
-    if len(batch) > 1:
-        raise ValueError(f"the batch sizes of `vertices` and `camera` differ: {sorted(batch)}")
-    batched_camera = bool(batch) and (
-        camera.eye.ndim == 2
-        or camera.fov_y.ndim == 1
-        or camera.near.ndim == 1
-        or camera.far.ndim == 1
-        or camera.aspect.ndim == 1
-        or camera.target.ndim == 2
-        or camera.up.ndim == 2
-    )
-    if batched_camera:
-        camera = _batched_camera(camera, batch.pop())
-    if attributes is not None:
-        attributes = as_float(attributes, "attributes")
-        check_shape(attributes, "attributes", (mesh.num_vertices, None))
-    return vertices, camera, batched_camera, attributes
-
-
-def _render_capacity(
-    mesh,
-    vertices,
-    camera,
-    batched_camera,
-    sigma,
-    soft,
-    eps,
-    shape,
-    tile_size,
-    capacity,
-    cull_backfaces,
-):
-    """The tile capacity: measured from the projected geometry when it is concrete."""
-    traced = any_traced(mesh, vertices, camera, sigma)
-    tri = valid = None
-    if not traced:
-
-        def project(v, c):
-            return project_faces(v, mesh.faces, c, shape, cull_backfaces=cull_backfaces)
-
-        axes = (0 if vertices.ndim == 3 else None, 0 if batched_camera else None)
-        if axes != (None, None):
-            project = jax.vmap(project, in_axes=axes)
-        tri, _, _, valid = project(vertices, camera)
-    margin = jnp.sqrt(sigma * logit_limit(eps)) if soft else jnp.zeros((), vertices.dtype)
-    return resolve_capacity(capacity, tri, valid, margin, shape, tile_size, traced, mesh.num_faces)
 
 
 def render(
@@ -530,86 +428,53 @@ def render(
 
     **Returns:** a `Rendering`.
     """
-    height, width = static_shape(shape)
-    if mode not in ("soft", "hard"):
-        raise ValueError(f"`mode` must be 'soft' or 'hard', got {mode!r}")
-    vertices, camera, batched_camera, attributes = _check_render_inputs(
-        mesh, camera, vertices, attributes
-    )
-    dtype = vertices.dtype
-    sigma = jnp.asarray(as_float(sigma, "sigma"), dtype)
-    gamma = jnp.asarray(as_float(gamma, "gamma"), dtype)
-    sigma, tile_size, capacity, tiles_per_step = check_options(
-        sigma, eps, tile_size, capacity, tiles_per_step
-    )
-    gamma = value_error_if(gamma, ~(gamma > 0), "`gamma` must be > 0")
-    lights = _check_lights(lights)
-    channels = (
-        mesh.colors.shape[1]
-        if mesh.colors is not None
-        else (mesh.texture.shape[-1] if mesh.texture is not None else 3)
-    )
-    background = check_finite(as_float(background, "background").astype(dtype), "background")
-    ambient = check_finite(as_float(ambient, "ambient"), "ambient")
-    eps_background = check_finite(as_float(eps_background, "eps_background"), "eps_background")
-    if background.ndim > 1 or background.size not in (1, channels):
-        raise ValueError(
-            f"`background` must be a scalar or a colour ({channels},), got shape {background.shape}"
-        )
-    background = jnp.broadcast_to(background, (channels,))
-    params = (sigma, gamma, eps_background.astype(dtype))
-    soft = mode == "soft"
-    capacity = _render_capacity(
+    vertices, camera, batched, attributes = check_render_inputs(mesh, camera, vertices, attributes)
+    params, ambient, background, sizes = render_options(
         mesh,
-        vertices,
-        camera,
-        batched_camera,
+        vertices.dtype,
         sigma,
-        soft,
-        eps,
-        (height, width),
-        tile_size,
-        capacity,
-        cull_backfaces,
-    )
-    config = _Config(
-        (height, width),
-        soft,
-        float(eps),
-        tile_size,
-        capacity,
-        tiles_per_step,
-        bool(antialias),
-        bool(cull_backfaces),
-        vertices.ndim == 3,
-        batched_camera,
-        _REFERENCE.get(),
-    )
-    extras = (
-        attributes,
-        lights,
-        brdf,
-        jnp.asarray(as_float(ambient, "ambient"), dtype),
+        gamma,
+        ambient,
         background,
-        params,
+        eps,
+        eps_background,
+        (tile_size, capacity, tiles_per_step),
     )
+    flags = (antialias, cull_backfaces, _REFERENCE.get())
+    config = render_config(
+        mesh, vertices, camera, batched, params[0], mode, shape, eps=eps, sizes=sizes, flags=flags
+    )
+    lights = _check_lights(lights)
+    extras = (attributes, lights, brdf, ambient, background, params)
     result, max_count = _render_jit(mesh, vertices, camera, extras, config=config)
-    return eqx.tree_at(
-        lambda r: r.color,
-        result,
-        check_capacity(result.color, max_count, capacity, tile_size, mesh.num_faces),
-    )
+    color = check_capacity(result.color, max_count, config.capacity, tile_size, mesh.num_faces)
+    return eqx.tree_at(lambda r: r.color, result, color)
 
 
 _REFERENCE = contextvars.ContextVar("gfxlab_render_reference", default=False)
 
 
-def _reference_render(*args, **kwargs) -> Rendering:
-    """`render` with every pixel against every face in one call, differentiated by plain
-    autodiff (no tiles, no custom VJP): the reference the tests compare gradients with."""
+def render_dense(mesh: Mesh, camera: Camera, shape: tuple[int, int], **options) -> Rendering:
+    """`render` with every pixel against every face in one step: the O(P·F) reference
+    (`P` pixels, `F` faces).
+
+    No tiles, no bins, and plain autodiff instead of the tiles' custom VJP: the values
+    and gradients the tiled `render` must reproduce. Time and memory grow with `P * F`:
+    for small images and meshes (tests, teaching).
+
+    **Arguments:** `mesh`, `camera`, `shape` and the keyword `options` of `render`. The
+    tile options (`tile_size`, `capacity`, `tiles_per_step`) are accepted, so that a
+    call switches between `render` and `render_dense` by its name alone, and have no
+    effect.
+
+    **Returns:** a `Rendering`.
+    """
+    check_mesh_camera(mesh, camera)
     token = _REFERENCE.set(True)
+    # One "tile" holds every face: no capacity to measure.
+    options = {**options, "capacity": max(mesh.num_faces, 1), "tiles_per_step": 1}
     try:
-        return render(*args, **kwargs)
+        return render(mesh, camera, shape, **options)
     finally:
         _REFERENCE.reset(token)
 
@@ -629,7 +494,7 @@ def shard_cameras(camera: Camera, devices=None) -> Camera:
             f"{len(devices)} devices, got eye shape {camera.eye.shape}"
         )
     batch = camera.eye.shape[0]
-    camera = _batched_camera(camera, batch)
+    camera = batched_camera(camera, batch)
     grid = jax.sharding.Mesh(np.asarray(devices), ("views",))
 
     def put(x):

@@ -24,7 +24,6 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float, Int
 
 from .._checks import as_float, check_finite, check_shape, static_shape, value_error_if
-from .._pixels import pixel_centers
 from ..mesh import Mesh, check_faces, face_normals
 from ..viewing import Camera
 from ._project import check_mesh_camera, project_faces
@@ -40,7 +39,13 @@ from ._tiles import (
     tiled,
 )
 
-__all__ = ["soft_silhouette", "soft_rasterize", "tile_capacity"]
+__all__ = [
+    "soft_silhouette",
+    "soft_silhouette_dense",
+    "soft_rasterize",
+    "soft_rasterize_dense",
+    "tile_capacity",
+]
 
 
 def _silhouette_pixels(points, tri, slot_mask, sigma, eps):
@@ -100,6 +105,34 @@ def soft_silhouette(
 
     **Returns:** `(H, W)` coverage in [0, 1].
     """
+    return _silhouette(vertices_2d, faces, shape, sigma, eps, (tile_size, capacity, tiles_per_step))
+
+
+def soft_silhouette_dense(
+    vertices_2d: Float[Array, "V 2"],
+    faces: Int[Array, "F 3"],
+    shape: tuple[int, int],
+    *,
+    sigma: float | Float[Array, ""],
+    eps: float = 1e-4,
+) -> Float[Array, "H W"]:
+    """`soft_silhouette` with every pixel against every face in one step: the O(P·F)
+    reference (`P` pixels, `F` faces).
+
+    No tiles, no bins, and plain autodiff instead of the tiles' custom VJP: the values
+    and gradients the tiled `soft_silhouette` must reproduce. Time and memory grow with
+    `P * F`: for small images and scenes (tests, teaching).
+
+    **Arguments:** `vertices_2d`, `faces`, `shape`, `sigma`, `eps` as in
+    `soft_silhouette`.
+
+    **Returns:** `(H, W)` coverage in [0, 1].
+    """
+    return _silhouette(vertices_2d, faces, shape, sigma, eps, (8, None, 1), reference=True)
+
+
+def _silhouette(vertices_2d, faces, shape, sigma, eps, sizes, *, reference=False):
+    """The checks of `soft_silhouette`(`_dense`) and the call of the jitted core."""
     height, width = static_shape(shape)
     vertices_2d = as_float(vertices_2d, "vertices_2d")
     check_shape(vertices_2d, "vertices_2d", (None, 2))
@@ -107,16 +140,15 @@ def soft_silhouette(
     faces = check_faces(faces, vertices_2d.shape[0])
     sigma = as_float(sigma, "sigma").astype(vertices_2d.dtype)
     check_shape(sigma, "sigma", ())
-    sigma, tile_size, capacity, tiles_per_step = check_options(
-        sigma, eps, tile_size, capacity, tiles_per_step
-    )
+    sigma, tile_size, capacity, tiles_per_step = check_options(sigma, eps, *sizes)
     tri = vertices_2d[faces]
-    margin = jnp.sqrt(sigma * logit_limit(eps))
+    if reference:
+        capacity = max(faces.shape[0], 1)  # unused: no tiles
     capacity = resolve_capacity(
         capacity,
         tri,
         jnp.ones(tri.shape[0], bool),
-        margin,
+        jnp.sqrt(sigma * logit_limit(eps)),
         (height, width),
         tile_size,
         any_traced(vertices_2d, sigma),
@@ -130,6 +162,7 @@ def soft_silhouette(
         tile_size=tile_size,
         capacity=capacity,
         tiles_per_step=tiles_per_step,
+        reference=reference,
     )
     return check_capacity(image, max_count, capacity, tile_size, faces.shape[0])
 
@@ -145,10 +178,29 @@ def _color_kernel(points, faces, slot_mask, ids, params, *, eps):
 
 
 @functools.partial(
-    jax.jit, static_argnames=("shape", "eps", "tile_size", "capacity", "tiles_per_step", "binned")
+    jax.jit,
+    static_argnames=(
+        "shape",
+        "eps",
+        "tile_size",
+        "capacity",
+        "tiles_per_step",
+        "binned",
+        "reference",
+    ),
 )
 def _silhouette_core(
-    vertices_2d, faces, sigma, *, shape, eps, tile_size, capacity, tiles_per_step, binned=True
+    vertices_2d,
+    faces,
+    sigma,
+    *,
+    shape,
+    eps,
+    tile_size,
+    capacity,
+    tiles_per_step,
+    binned=True,
+    reference=False,
 ):
     tri = vertices_2d[faces]
     valid = jnp.ones(tri.shape[0], bool)
@@ -165,6 +217,7 @@ def _silhouette_core(
         capacity=capacity,
         tiles_per_step=tiles_per_step,
         binned=binned,
+        reference=reference,
     )
     return image[..., 0], max_count
 
@@ -262,6 +315,41 @@ def soft_rasterize(
     soft silhouette as alpha, and the `(H, W)` softmax-weighted eye depth (the
     background counts as the far plane).
     """
+    options = (sigma, gamma, background, light, ambient, eps, eps_background)
+    return _rasterize(mesh, camera, shape, options, (tile_size, capacity, tiles_per_step))
+
+
+def soft_rasterize_dense(
+    mesh: Mesh,
+    camera: Camera,
+    shape: tuple[int, int],
+    *,
+    sigma: float | Float[Array, ""],
+    gamma: float | Float[Array, ""],
+    background=(0.0, 0.0, 0.0),
+    light=None,
+    ambient: float = 0.3,
+    eps: float = 1e-4,
+    eps_background: float = 1e-3,
+) -> tuple[Float[Array, "H W 4"], Float[Array, "H W"]]:
+    """`soft_rasterize` with every pixel against every face in one step: the O(P·F)
+    reference (`P` pixels, `F` faces).
+
+    No tiles, no bins, and plain autodiff instead of the tiles' custom VJP: the values
+    and gradients the tiled `soft_rasterize` must reproduce. Time and memory grow with
+    `P * F`: for small images and meshes (tests, teaching).
+
+    **Arguments:** as `soft_rasterize`, without the tile options.
+
+    **Returns:** `(rgba, depth)` as `soft_rasterize`.
+    """
+    options = (sigma, gamma, background, light, ambient, eps, eps_background)
+    return _rasterize(mesh, camera, shape, options, (8, None, 1), reference=True)
+
+
+def _rasterize(mesh, camera, shape, options, sizes, *, reference=False):
+    """The checks of `soft_rasterize`(`_dense`) and the call of the jitted core."""
+    sigma, gamma, background, light, ambient, eps, eps_background = options
     height, width = static_shape(shape)
     check_mesh_camera(mesh, camera)
     ambient = check_finite(as_float(ambient, "ambient"), "ambient")
@@ -272,24 +360,18 @@ def soft_rasterize(
     gamma = as_float(gamma, "gamma").astype(dtype)
     check_shape(sigma, "sigma", ())
     check_shape(gamma, "gamma", ())
-    sigma, tile_size, capacity, tiles_per_step = check_options(
-        sigma, eps, tile_size, capacity, tiles_per_step
-    )
+    sigma, tile_size, capacity, tiles_per_step = check_options(sigma, eps, *sizes)
     gamma = value_error_if(gamma, ~(gamma > 0), "`gamma` must be > 0")
     background = check_finite(as_float(background, "background").astype(dtype), "background")
     check_shape(background, "background", (colors.shape[-1],))
+    if reference:
+        capacity = max(mesh.num_faces, 1)  # unused: no tiles
     margin = jnp.sqrt(sigma * logit_limit(eps))
     capacity = resolve_capacity(
         capacity, tri, valid, margin, (height, width), tile_size, any_traced(mesh, camera, sigma)
     )
-    params = (
-        sigma,
-        gamma,
-        camera.near.astype(dtype),
-        camera.far.astype(dtype),
-        background,
-        eps_background.astype(dtype),
-    )
+    near, far = camera.near.astype(dtype), camera.far.astype(dtype)
+    params = (sigma, gamma, near, far, background, eps_background.astype(dtype))
     out, max_count = _color_core(
         tri,
         inv_depth,
@@ -301,13 +383,23 @@ def soft_rasterize(
         tile_size=tile_size,
         capacity=capacity,
         tiles_per_step=tiles_per_step,
+        reference=reference,
     )
     out = check_capacity(out, max_count, capacity, tile_size, mesh.num_faces)
     return out[..., :-1], out[..., -1]
 
 
 @functools.partial(
-    jax.jit, static_argnames=("shape", "eps", "tile_size", "capacity", "tiles_per_step", "binned")
+    jax.jit,
+    static_argnames=(
+        "shape",
+        "eps",
+        "tile_size",
+        "capacity",
+        "tiles_per_step",
+        "binned",
+        "reference",
+    ),
 )
 def _color_core(
     tri,
@@ -322,6 +414,7 @@ def _color_core(
     capacity,
     tiles_per_step,
     binned=True,
+    reference=False,
 ):
     margin = jnp.sqrt(params[0] * logit_limit(eps))
     return tiled(
@@ -336,45 +429,5 @@ def _color_core(
         capacity=capacity,
         tiles_per_step=tiles_per_step,
         binned=binned,
+        reference=reference,
     )
-
-
-@functools.partial(jax.jit, static_argnames=("shape", "eps"))
-def _dense_soft_rasterize(
-    mesh,
-    camera,
-    shape,
-    *,
-    sigma,
-    gamma,
-    background=(0.0, 0.0, 0.0),
-    light=None,
-    ambient=0.3,
-    eps=1e-4,
-    eps_background=1e-3,
-):
-    """Reference: every pixel against every face in one step (no tiles, no bins)."""
-    height, width = shape
-    tri, inv_depth, colors, valid = _project_mesh(mesh, camera, shape, light, ambient)
-    dtype = tri.dtype
-    params = (
-        jnp.asarray(sigma, dtype),
-        jnp.asarray(gamma, dtype),
-        eps,
-        camera.near.astype(dtype),
-        camera.far.astype(dtype),
-        jnp.asarray(background, dtype),
-        jnp.asarray(eps_background, dtype),
-    )
-    points = pixel_centers((height, width), dtype).reshape(-1, 2)
-    out = _color_pixels(points, (tri, inv_depth, colors), valid, params).reshape(height, width, -1)
-    return out[..., :-1], out[..., -1]
-
-
-@functools.partial(jax.jit, static_argnames=("shape", "eps"))
-def _dense_soft_silhouette(vertices_2d, faces, shape, *, sigma, eps=1e-4):
-    """Reference: every pixel against every face in one step (no tiles, no bins)."""
-    tri = vertices_2d[faces]
-    points = pixel_centers(shape, tri.dtype).reshape(-1, 2)
-    valid = jnp.ones(tri.shape[0], bool)
-    return _silhouette_pixels(points, tri, valid, sigma, eps).reshape(shape)

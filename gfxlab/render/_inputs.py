@@ -1,0 +1,203 @@
+"""Checks of `render`'s inputs and options, batched cameras, and the static
+configuration `render` compiles with (its tile capacity measured from the geometry)."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from .._checks import (
+    as_float,
+    check_finite,
+    check_shape,
+    is_traced,
+    static_shape,
+    value_error_if,
+)
+from ..viewing import Camera
+from ._project import check_mesh_camera, project_faces
+from ._tiles import any_traced, check_options, logit_limit, resolve_capacity
+
+
+class RenderConfig(NamedTuple):
+    """The static (hashable) part of a `render` call."""
+
+    shape: tuple[int, int]
+    soft: bool
+    eps: float
+    tile_size: int
+    capacity: int
+    tiles_per_step: int
+    antialias: bool
+    cull_backfaces: bool
+    batched_vertices: bool
+    batched_camera: bool
+    reference: bool = False  # plain autodiff, every pixel against every face
+
+
+def batched_camera(camera: Camera, batch: int) -> Camera:
+    """Every field of a batched camera with the leading batch axis."""
+    fields = {}
+    for name in ("eye", "target", "up", "fov_y", "aspect", "near", "far"):
+        value = getattr(camera, name)
+        core = (3,) if name in ("eye", "target", "up") else ()
+        if value.shape not in (core, (batch,) + core):
+            raise ValueError(
+                f"`camera.{name}` must have shape {core} or {(batch,) + core} for a "
+                f"batch of {batch}, got {value.shape}"
+            )
+        fields[name] = jnp.broadcast_to(value, (batch,) + core)
+    eye = fields.pop("eye")
+    return Camera(eye, fields.pop("target"), fields.pop("up"), **fields)
+
+
+def check_render_inputs(mesh, camera, vertices, attributes):
+    check_mesh_camera(mesh, camera)
+    if vertices is None:
+        vertices = mesh.vertices
+    else:
+        vertices = as_float(vertices, "vertices")
+        check_shape(vertices, "vertices", (..., mesh.num_vertices, 3))
+        if vertices.ndim not in (2, 3):
+            raise ValueError(
+                f"`vertices` must have shape (V, 3) or (B, V, 3), got {vertices.shape}"
+            )
+        vertices = check_finite(vertices, "vertices")
+    batch = {vertices.shape[0]} if vertices.ndim == 3 else set()
+    if camera.eye.ndim == 2 or any(
+        getattr(camera, n).ndim >= 1 for n in ("fov_y", "aspect", "near", "far")
+    ):
+        sizes = {
+            getattr(camera, n).shape[0]
+            for n in ("eye", "target", "up")
+            if getattr(camera, n).ndim == 2
+        }
+        sizes |= {
+            getattr(camera, n).shape[0]
+            for n in ("fov_y", "aspect", "near", "far")
+            if getattr(camera, n).ndim == 1
+        }
+        batch |= sizes
+    if len(batch) > 1:
+        raise ValueError(f"the batch sizes of `vertices` and `camera` differ: {sorted(batch)}")
+    batched = bool(batch) and (
+        camera.eye.ndim == 2
+        or camera.fov_y.ndim == 1
+        or camera.near.ndim == 1
+        or camera.far.ndim == 1
+        or camera.aspect.ndim == 1
+        or camera.target.ndim == 2
+        or camera.up.ndim == 2
+    )
+    if batched:
+        camera = batched_camera(camera, batch.pop())
+    if attributes is not None:
+        attributes = as_float(attributes, "attributes")
+        check_shape(attributes, "attributes", (mesh.num_vertices, None))
+    return vertices, camera, batched, attributes
+
+
+def _render_capacity(
+    mesh,
+    vertices,
+    camera,
+    batched_camera,
+    sigma,
+    soft,
+    eps,
+    shape,
+    tile_size,
+    capacity,
+    cull_backfaces,
+):
+    """The tile capacity: measured from the projected geometry when it is concrete."""
+    traced = any_traced(mesh, vertices, camera, sigma)
+    tri = valid = None
+    if not traced:
+
+        def project(v, c):
+            return project_faces(v, mesh.faces, c, shape, cull_backfaces=cull_backfaces)
+
+        axes = (0 if vertices.ndim == 3 else None, 0 if batched_camera else None)
+        if axes != (None, None):
+            project = jax.vmap(project, in_axes=axes)
+        tri, _, _, valid = project(vertices, camera)
+    margin = jnp.sqrt(sigma * logit_limit(eps)) if soft else jnp.zeros((), vertices.dtype)
+    return resolve_capacity(capacity, tri, valid, margin, shape, tile_size, traced, mesh.num_faces)
+
+
+def render_options(mesh, dtype, sigma, gamma, ambient, background, eps, eps_background, sizes):
+    """`render`'s checked numeric options: `(params, ambient, background, sizes)` with
+    `params = (sigma, gamma, eps_background)` and `sizes = (tile_size, capacity,
+    tiles_per_step)`."""
+    sigma = jnp.asarray(as_float(sigma, "sigma"), dtype)
+    gamma = jnp.asarray(as_float(gamma, "gamma"), dtype)
+    sigma, *sizes = check_options(sigma, eps, *sizes)
+    gamma = value_error_if(gamma, ~(gamma > 0), "`gamma` must be > 0")
+    channels = (
+        mesh.colors.shape[1]
+        if mesh.colors is not None
+        else (mesh.texture.shape[-1] if mesh.texture is not None else 3)
+    )
+    background = check_finite(as_float(background, "background").astype(dtype), "background")
+    if background.ndim > 1 or background.size not in (1, channels):
+        raise ValueError(
+            f"`background` must be a scalar or a colour ({channels},), got shape {background.shape}"
+        )
+    background = jnp.broadcast_to(background, (channels,))
+    ambient = jnp.asarray(as_float(ambient, "ambient"), dtype)
+    # Every rendering uses the background but only a lit one the ambient term: the
+    # ambient check rides on the background, so that it is never dead code under jit.
+    background = _finite_alongside(background, ambient, "ambient")
+    eps_background = check_finite(as_float(eps_background, "eps_background"), "eps_background")
+    return (sigma, gamma, eps_background.astype(dtype)), ambient, background, tuple(sizes)
+
+
+def _finite_alongside(x, other, name: str):
+    """`x`, after checking that `other` holds no NaN or inf: eagerly at once, under `jit`
+    through `x` (so the check runs whenever `x` is used)."""
+    if not is_traced(other):
+        check_finite(other, name)
+        return x
+    bad = ~jnp.all(jnp.isfinite(other))
+    return value_error_if(x, bad, f"`{name}` must be finite (no NaN or inf)")
+
+
+def render_config(mesh, vertices, camera, batched, sigma, mode, shape, *, eps, sizes, flags):
+    """The `RenderConfig` of a call, after checking `mode` and `shape`;
+    `sizes = (tile_size, capacity, tiles_per_step)`, `flags = (antialias,
+    cull_backfaces, reference)`."""
+    if mode not in ("soft", "hard"):
+        raise ValueError(f"`mode` must be 'soft' or 'hard', got {mode!r}")
+    shape = static_shape(shape)
+    tile_size, capacity, tiles_per_step = sizes
+    antialias, cull_backfaces, reference = flags
+    soft = mode == "soft"
+    capacity = _render_capacity(
+        mesh,
+        vertices,
+        camera,
+        batched,
+        sigma,
+        soft,
+        eps,
+        shape,
+        tile_size,
+        capacity,
+        cull_backfaces,
+    )
+    return RenderConfig(
+        shape,
+        soft,
+        float(eps),
+        tile_size,
+        capacity,
+        tiles_per_step,
+        bool(antialias),
+        bool(cull_backfaces),
+        vertices.ndim == 3,
+        batched,
+        reference,
+    )
