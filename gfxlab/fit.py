@@ -19,6 +19,19 @@ arguments of the same structure, shapes and dtypes does not recompile. To differ
 through a solve, call `optimistix.least_squares`/`optimistix.minimise` directly (they are
 traceable).
 
+**Which leaves are fitted.** Floating-point array leaves of `params` are fitted; other
+leaves are held fixed. An `eqx.Module` in `params` may define a method
+`fixed_fields(self) -> tuple[str, ...]`: the fields it names are held fixed (e.g. a
+`BSpline`'s knots when it is not fitting them). `fixed=` adds to this: a pytree prefix
+of `params` with `True` (fixed) / `False`, or a callable `leaf -> bool`.
+
+**Bounds.** `bounds=` gives `(lo, hi)` per parameter, as a pytree prefix of `params` (a
+dict `{"quality": (1.0, 100.0)}`, one pair for everything, `None` for unbounded parts;
+`lo`/`hi` may be arrays, `None` or infinite for one-sided bounds). A bounded parameter
+is fitted through a smooth reparametrisation (a scaled sigmoid, or a softplus for one
+side), so it stays strictly inside `(lo, hi)` at every step, never clipped; the start
+must be strictly inside. Learning rates apply to the unconstrained variable.
+
 Example:
     >>> import jax.numpy as jnp
     >>> from gfxlab.fit import fit
@@ -214,7 +227,12 @@ def _describe(problem, z, args):
     """Whether `fn` returns a scalar, and its output structure. Only static values come
     out, so the compiled program is empty (the initial loss comes from the first compiled
     step); `filter_jit` caches the trace for a refit."""
-    out = problem.output(z, args)
+    try:
+        out = problem.output(z, args)
+    except FitError:
+        raise
+    except Exception as err:
+        raise FitError(f"calling `fn` with the initial parameters failed: {err}") from err
     leaves = jax.tree_util.tree_leaves(out)
     if not leaves or not all(eqx.is_array(v) for v in leaves):
         raise FitError(
@@ -447,18 +465,15 @@ def fit(
 ) -> FitResult:
     """Fit `params` so that `fn(params, *args)` is as small as possible.
 
-    A driver that runs cached, compiled chunks of steps in a Python loop: call it
-    eagerly, not under `jax.jit`/`jax.grad`/`jax.vmap` (see the module docstring).
+    A driver: call it eagerly, not under `jax.jit`/`jax.grad`/`jax.vmap` (see the
+    module docstring, which also details `fixed` and `bounds`).
 
     **Arguments:**
 
     - `fn`: returns either residuals (any pytree of arrays; the loss is the sum of
       their squares) or a 0-d scalar loss (minimised as it is), for every method.
     - `params`: the starting point, any pytree (dicts, tuples, `eqx.Module`s such as
-      a `Bezier` curve or a `Camera`). Floating-point array leaves are fitted; other
-      leaves are held fixed. An `eqx.Module` in `params` may define a method
-      `fixed_fields(self) -> tuple[str, ...]`: the fields it names are held fixed
-      (e.g. a `BSpline`'s knots when it is not fitting them).
+      a `Bezier` curve or a `Camera`); its floating-point array leaves are fitted.
     - `args`: extra arguments passed to `fn` (data, targets), not fitted.
     - `method`: `"levenberg_marquardt"`, `"gauss_newton"`, `"bfgs"`, `"adam"`,
       `"gradient_descent"`, or a ready optimistix solver or optax transformation.
@@ -469,15 +484,10 @@ def fit(
     - `progress`: show a progress line (updates in place in a notebook).
     - `chunk_size`: steps run per compiled call between progress updates and NaN
       checks (default: all at once without progress, about 20 updates with it).
-    - `bounds`: `(lo, hi)` per parameter, as a pytree prefix of `params` (a dict
-      `{"quality": (1.0, 100.0)}`, one pair for everything, `None` for unbounded parts;
-      `lo`/`hi` may be arrays, `None` or infinite for one-sided bounds). A bounded
-      parameter is fitted through a smooth reparametrisation (a scaled sigmoid, or a
-      softplus for one side), so it stays strictly inside `(lo, hi)` at every step,
-      never clipped; the start must be strictly inside. Learning rates apply to the
-      unconstrained variable.
-    - `fixed`: leaves to hold fixed: a pytree prefix of `params` with `True` (fixed) /
-      `False`, or a callable `leaf -> bool`. Adds to the `fixed_fields` protocol.
+    - `bounds`: `(lo, hi)` per parameter (a pytree prefix of `params`); a bounded
+      parameter stays strictly inside through a smooth reparametrisation.
+    - `fixed`: leaves to hold fixed (a pytree prefix of `params` of booleans, or a
+      callable `leaf -> bool`), besides the `fixed_fields` protocol.
 
     **Returns:** a `FitResult` with the best `params` seen and the `loss_history`.
 
@@ -495,12 +505,7 @@ def fit(
         _positive_number(atol, "atol", allow_zero=True),
     )
     problem, z = _setup(fn, params, fixed, bounds)
-    try:
-        scalar, f_struct = _describe(problem, z, args)
-    except FitError:
-        raise
-    except Exception as err:
-        raise FitError(f"calling `fn` with the initial parameters failed: {err}") from err
+    scalar, f_struct = _describe(problem, z, args)
     name, state, run, solver_test, initial = _runner(
         problem, method, z, args, scalar, f_struct, options
     )
@@ -510,10 +515,14 @@ def fit(
     state, loss_history, converged = _drive(
         run, state, args, max_steps, min(chunk_size, max_steps), solver_test, name, bar, initial
     )
-    initial_loss = loss_history[0]
+    return _result(problem, z, state, loss_history, converged, name)
+
+
+def _result(problem, z, state, loss_history, converged, name) -> FitResult:
+    """The `FitResult`: the best parameters seen (the start when nothing was better)."""
     best_z, best_loss, best_step = state[-2]
     best_step = int(best_step) if np.isfinite(float(best_loss)) else 0
-    if float(initial_loss) <= loss_history[best_step]:
+    if float(loss_history[0]) <= loss_history[best_step]:
         best_z, best_step = z, 0  # the start is as good as anything seen
     return FitResult(
         params=problem.params(best_z),

@@ -99,10 +99,7 @@ def _check(argv) -> int:
     return 0
 
 
-def _grade(argv) -> int:
-    if "--isolation" in argv:  # which isolation layers this machine gives, then exit
-        print("\n".join(detect_protections().describe()))
-        return 0
+def _grade_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python -m gfxlab grade",
         usage="python -m gfxlab grade SUBMISSION --autograder DIR [options]\n"
@@ -130,37 +127,53 @@ def _grade(argv) -> int:
         help="print which isolation layers are active here, and exit",
     )
     _limit_args(parser)
-    args = parser.parse_args(argv)
+    return parser
+
+
+def _grade(argv) -> int:
+    if "--isolation" in argv:  # which isolation layers this machine gives, then exit
+        print("\n".join(detect_protections().describe()))
+        return 0
+    args = _grade_parser().parse_args(argv)
     if not (args.autograder / "config.json").is_file():
         print(f"error: {args.autograder} is not an autograder directory", file=sys.stderr)
         return 1
     if args.submission.is_dir():
-        notebooks = sorted(args.submission.glob("*.ipynb"))
-        if not notebooks:
-            print(f"error: no .ipynb files in {args.submission}", file=sys.stderr)
-            return 1
-        out = args.out or pathlib.Path("grading-results")
-        results = commands.grade_many(
-            notebooks, args.autograder, out, jobs=args.jobs, limits=_limits(args)
-        )
-        for r in results:
-            flag = "  GRADING ERROR" if r.error else ""
-            print(
-                f"{r.submission[:40]!s:40s} {r.score:7.2f} / {r.max_score:g}  "
-                f"({r.seconds:.1f} s){flag}"
-            )
-        print(f"summary: {out / 'summary.csv'}")
-        errors = sum(bool(r.error) for r in results)
-        if errors:
-            print(
-                f"error: the grader failed on {errors} submission(s); see summary.csv",
-                file=sys.stderr,
-            )
-            return 2
-        return 0
+        return _grade_folder(args)
     if not args.submission.is_file():
         print(f"error: {args.submission} not found", file=sys.stderr)
         return 1
+    return _grade_notebook(args)
+
+
+def _grade_folder(args) -> int:
+    """Grade every .ipynb of the folder `args.submission` in parallel."""
+    notebooks = sorted(args.submission.glob("*.ipynb"))
+    if not notebooks:
+        print(f"error: no .ipynb files in {args.submission}", file=sys.stderr)
+        return 1
+    out = args.out or pathlib.Path("grading-results")
+    results = commands.grade_many(
+        notebooks, args.autograder, out, jobs=args.jobs, limits=_limits(args)
+    )
+    for r in results:
+        flag = "  GRADING ERROR" if r.error else ""
+        print(
+            f"{r.submission[:40]!s:40s} {r.score:7.2f} / {r.max_score:g}  ({r.seconds:.1f} s){flag}"
+        )
+    print(f"summary: {out / 'summary.csv'}")
+    errors = sum(bool(r.error) for r in results)
+    if errors:
+        print(
+            f"error: the grader failed on {errors} submission(s); see summary.csv",
+            file=sys.stderr,
+        )
+        return 2
+    return 0
+
+
+def _grade_notebook(args) -> int:
+    """Grade the one notebook `args.submission`."""
     # In a child process killed at the hard limit; its sandbox starts while tests load.
     try:
         result = grader.grade_one(args.autograder, args.submission, limits=_limits(args))
