@@ -219,12 +219,18 @@ def test_rotation_keys_slerp_and_squad():
     for method, continuous in (("squad", True), ("slerp", False)):
         jump = np.abs(velocity(method, keys - 1e-9) - velocity(method, keys + 1e-9)).max()
         assert (jump < 1e-6) if continuous else (jump > 1e-2)
-    # With even spacing the inner quaternions are Shoemake's.
+    # With even spacing the inner quaternions are Shoemake's: the middle segment is his
+    # squad with `squad_inner` controls (keys normalised and sign-aligned, as documented).
     even = jnp.arange(4.0)
-    s_in, s_out = A.keyframes._squad_inners(even, quats)
-    ref = A.squad_inner(quats[:2], quats[1:3], quats[2:])
-    np.testing.assert_allclose(s_in[1:3], ref, atol=1e-12)
-    np.testing.assert_allclose(s_out[1:3], ref, atol=1e-12)
+    q = np.asarray(quats) / np.linalg.norm(quats, axis=-1, keepdims=True)
+    for k in range(1, 4):
+        q[k] *= np.sign(np.dot(q[k], q[k - 1])) or 1.0
+    u = jnp.linspace(0.0, 1.0, 7)
+    inner = A.squad_inner(q[:2], q[1:3], q[2:])
+    controls = [jnp.broadcast_to(x, (7, 4)) for x in (q[1], inner[0], inner[1], q[2])]
+    ref = A.squad(*controls, u)
+    ours = A.interpolate_rotations(even, quats, 1.0 + u, method="squad")
+    np.testing.assert_allclose(ours, ref, atol=1e-12)
     with pytest.raises(ValueError, match="method"):
         A.interpolate_rotations(times, quats, t, method="lerp")
     with pytest.raises(ValueError, match="quats"):

@@ -306,16 +306,14 @@ def test_banded_encoding_equals_one_pass_for_any_band_count():
     # prediction across them; the result must not depend on where the bands fall.
     img, factors = photo(150, 90, seed=7), ((2, 2), (1, 1), (1, 1))  # 10 MCU rows
     lay = _encoder.layout(150, 90, factors)
-    divisors = codec._divisors(40, 3)
+    luma, chroma = codec.integer_tables(40)
+    divisors = _encoder.quantizers([luma, chroma, chroma])
     padded = _encoder.pad_input(img, lay)
     expected = _encoder.pack_scan(_encoder.scan_events(padded, divisors, lay, np))
     for bands in (1, 3, 10):
         plan = _encoder.band_plan(150, 90, factors, bands)
         assert len(plan) == bands and sum(band.mcus[0] for _, band in plan) == 10
-        aligned = codec._aligned(padded)
-        results = [
-            _encoder.compiled_band_events(band)(aligned, divisors, row) for row, band in plan
-        ]
+        results = [_encoder.compiled_band_events(band)(padded, divisors, row) for row, band in plan]
         assert _encoder.pack_bands(results, plan) == expected, bands
 
 

@@ -10,7 +10,6 @@ from jax.test_util import check_grads
 from matplotlib.path import Path
 
 from gfxlab import raster
-from gfxlab.raster import conics
 
 # --------------------------------------------------------------------------- pixels
 
@@ -152,28 +151,23 @@ def test_midpoint_circle_equals_skimage_every_radius_0_to_300():
 
 
 def test_circle_steps_equal_vectorized_for_all_radii():
-    # The stepwise recurrence for every radius in one vmapped scan, against the closed form.
-    radii = jnp.arange(301)
-    rows = jax.jit(jax.vmap(lambda r: conics._circle_trace_scan(r, 301)))(radii)
-    xs = jnp.arange(302)
-    ys = jax.jit(jax.vmap(lambda r: conics._circle_octant_y(r, xs)))(radii)
-    rows, ys = np.asarray(rows), np.asarray(ys)
+    # The stepwise recurrence (`midpoint_circle_trace`, `midpoint_circle_steps`) against
+    # the closed form (`midpoint_circle`), for every radius 0..300.
     for r in range(301):
-        steps = int(np.sum(xs < ys[r]))
-        np.testing.assert_array_equal(rows[r, :steps, 2], np.arange(1, steps + 1))
-        x_next, y_next = rows[r, :steps, 2], rows[r, :steps, 3]
-        octant = x_next <= y_next
-        np.testing.assert_array_equal(y_next[octant], ys[r, 1 : steps + 1][octant], err_msg=str(r))
-        # Only the last step may cross the diagonal, onto the mirror image of the pixel
-        # before it.
-        assert octant[:-1].all()
-        if steps and not octant[-1]:
-            previous = (x_next[-2], y_next[-2]) if steps > 1 else (0, r)
+        trace = np.asarray(raster.midpoint_circle_trace(r))
+        np.testing.assert_array_equal(trace[:, 0], np.arange(len(trace)))
+        x_next, y_next = trace[:, 2], trace[:, 3]
+        np.testing.assert_array_equal(x_next, np.arange(1, len(trace) + 1))
+        # The loop runs while x < y: only the last step may cross the diagonal, onto the
+        # mirror image of the pixel before it.
+        assert (x_next[:-1] <= y_next[:-1]).all()
+        if len(trace) and x_next[-1] > y_next[-1]:
+            previous = (x_next[-2], y_next[-2]) if len(trace) > 1 else (0, r)
             assert (x_next[-1], y_next[-1]) == previous[::-1]
-    for radius in (0, 1, 2, 7, 10, 33, 150):
         np.testing.assert_array_equal(
-            raster.midpoint_circle_steps(radius, center=(2, 3)),
-            raster.midpoint_circle(radius, center=(2, 3)),
+            raster.midpoint_circle_steps(r, center=(2, 3)),
+            raster.midpoint_circle(r, center=(2, 3)),
+            err_msg=str(r),
         )
 
 
@@ -224,16 +218,15 @@ def test_ellipse_trace_matches_textbook_example():
 
 
 def test_ellipse_closed_form_equals_steps_on_a_grid():
-    size = 48
-    rx, ry = (g.ravel() for g in np.meshgrid(np.arange(1, size + 1), np.arange(1, size + 1)))
-    closed = jax.jit(jax.vmap(lambda a, b: conics._ellipse_closed_form(a, b, size + 1)))
-    steps = jax.jit(jax.vmap(lambda a, b: conics._ellipse_trace_scan(a, b, 2 * size + 2)))
-    points, valid = (np.asarray(v) for v in closed(rx, ry))
-    rows = np.asarray(steps(rx, ry))
-    for i in range(rx.size):
-        stepwise = rows[i][rows[i][:, 6] == 1][:, 4:6]
-        expected = np.concatenate([[[0, ry[i]]], stepwise])
-        np.testing.assert_array_equal(points[i][valid[i]], expected, err_msg=f"{rx[i]}, {ry[i]}")
+    # The stepwise two-region loop (`midpoint_ellipse_steps`) against the closed form
+    # (`midpoint_ellipse`), for every pair of semi-axes up to 48.
+    for rx in range(1, 49):
+        for ry in range(1, 49):
+            np.testing.assert_array_equal(
+                raster.midpoint_ellipse_steps(rx, ry),
+                raster.midpoint_ellipse(rx, ry),
+                err_msg=f"{rx}, {ry}",
+            )
 
 
 @pytest.mark.parametrize("rx, ry", [(1, 1), (8, 6), (3, 17), (25, 4), (40, 40), (128, 90)])

@@ -1,5 +1,7 @@
 """gfxlab.raster: bad inputs (eagerly and under jit), size limits, and eager == jit."""
 
+import logging
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -185,11 +187,16 @@ def test_eager_equals_jit():
         np.testing.assert_allclose(eager, jitted, rtol=1e-13, atol=1e-15)
 
 
-def test_stepwise_lines_compile_once_per_length_and_axis():
-    raster.line_dda_steps((0, 0), (7, 3))
-    before = raster.lines._dda_scan._cache_size()
-    raster.line_dda_steps((5, -2), (-2, -5))  # same length and axis, other start and signs
-    assert raster.lines._dda_scan._cache_size() == before
+def test_stepwise_lines_compile_once_per_length_and_axis(caplog):
+    def compiles(p0, p1):
+        caplog.clear()
+        with jax.log_compiles(True), caplog.at_level(logging.WARNING, logger="jax"):
+            raster.line_dda_steps(p0, p1)
+        return [r for r in caplog.records if r.getMessage().startswith("Compiling")]
+
+    compiles((0, 0), (7, 3))
+    assert not compiles((5, -2), (-2, -5))  # same length and axis, other start and signs
+    assert compiles((0, 0), (3, 9))  # the other axis: a new program (the check can fail)
 
 
 # ------------------------------------------------------- centres, points, beams (issue 17)

@@ -2,9 +2,9 @@
 
 The pixels of a circle or an ellipse depend on static ints only (radii): their
 vectorized closed forms run in NumPy at trace time (a constant under `jit`, and no
-compilation per radius in eager use). The same closed forms run in JAX on traced
-values, which is how the tests check them against the `lax.scan` versions for
-hundreds of radii at once. A circle's centre may be traced.
+compilation per radius in eager use). The stepwise `lax.scan` versions (`*_trace`,
+`*_steps`) compile once per power-of-two scan length, not once per radius. A circle's
+centre may be traced.
 """
 
 from __future__ import annotations
@@ -202,6 +202,19 @@ def _circle_num_steps(radius: int) -> int:
     return int(np.sum(octant[:, 0] < octant[:, 1]))
 
 
+def _scan_length(steps: int) -> int:
+    """The scan length compiled for `steps` steps: the next power of two, so that the
+    stepwise versions compile a few times in all, not once per radius."""
+    return 1 << max(steps - 1, 0).bit_length()
+
+
+def _circle_trace_rows(radius: int) -> np.ndarray:
+    steps = _circle_num_steps(radius)
+    with jax.ensure_compile_time_eval():
+        rows = np.asarray(_circle_trace_scan(radius, _scan_length(steps)))
+    return rows[:steps]
+
+
 def midpoint_circle_trace(radius: int) -> Int[Array, "K 4"]:
     """The midpoint circle algorithm's steps as the textbook tabulates them (`lax.scan`).
 
@@ -220,7 +233,7 @@ def midpoint_circle_trace(radius: int) -> Int[Array, "K 4"]:
     **Returns:** int32 `(K, 4)` with columns `(k, p_k, x_{k+1}, y_{k+1})`.
     """
     radius = _check_radius(radius, "radius", MAX_CIRCLE_RADIUS)
-    return _circle_trace_scan(radius, _circle_num_steps(radius))
+    return jnp.asarray(_circle_trace_rows(radius))
 
 
 def midpoint_circle_steps(radius: int, *, center: tuple[int, int] = (0, 0)) -> Int[Array, "N 2"]:
@@ -230,8 +243,7 @@ def midpoint_circle_steps(radius: int, *, center: tuple[int, int] = (0, 0)) -> I
     """
     radius = _check_radius(radius, "radius", MAX_CIRCLE_RADIUS)
     center = _check_center(center)
-    with jax.ensure_compile_time_eval():
-        rows = np.asarray(_circle_trace_scan(radius, _circle_num_steps(radius)))
+    rows = _circle_trace_rows(radius)
     octant = np.concatenate([np.array([[0, radius]]), rows[:, 2:4]])
     # The last step may overshoot the diagonal by one column: that pixel is the mirror
     # image of the one before it, which the symmetric copies already contain.
@@ -374,7 +386,7 @@ def midpoint_ellipse(rx: int, ry: int, *, center: tuple[int, int] = (0, 0)) -> I
 
 def _ellipse_trace_rows(rx: int, ry: int) -> np.ndarray:
     with jax.ensure_compile_time_eval():
-        rows = np.asarray(_ellipse_trace_scan(rx, ry, rx + ry + 2))
+        rows = np.asarray(_ellipse_trace_scan(rx, ry, _scan_length(rx + ry + 2)))
     return rows[rows[:, 6] == 1]
 
 
