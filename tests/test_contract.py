@@ -247,6 +247,8 @@ class _RenderBaseline(dict):
 BASELINES |= {
     "render.render": _RenderBaseline(),
     "render.soft_rasterize": _RenderBaseline(gamma=0.1),
+    "render.soft_rasterize_dense": _RenderBaseline(gamma=0.1),
+    "render.render_dense": _RenderBaseline(),
     "render.tile_capacity": _RenderBaseline(),
     "render.shard_cameras": _RenderBaseline(batch=2),
     "render.interpolate": {"attributes": [[0.1, 0.2, 0.3, 0.4, 0.5]] * 4},
