@@ -32,7 +32,7 @@ is fitted through a smooth reparametrisation (a scaled sigmoid, or a softplus fo
 side), so it stays strictly inside `(lo, hi)` at every step, never clipped; the start
 must be strictly inside. Learning rates apply to the unconstrained variable.
 
-Example:
+Examples:
     >>> import jax.numpy as jnp
     >>> from gfxlab.fit import fit
     >>> x = jnp.linspace(0, 1, 20); y = 3 * x + 1

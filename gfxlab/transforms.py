@@ -10,7 +10,7 @@ gives `K` matrices of shape `(K, 3, 3)`.
 The textbook's row-vector form `p' = p . T` uses the transpose: `T = M.T`.
 `compose(A, B, C)` means "A first, then B, then C", i.e. `C @ B @ A`.
 
-Example:
+Examples:
     >>> import jax.numpy as jnp
     >>> from gfxlab import transforms as tf
     >>> square = jnp.array([[-.5, -.5], [.5, -.5], [.5, .5], [-.5, .5]])

@@ -25,7 +25,7 @@ environment this is the "white furnace" test). Single-scattering microfacet mode
 such as GGX lose energy at high roughness (light that would bounce more than once
 between microfacets is dropped), so their albedo falls visibly below `f0 = 1`.
 
-Example:
+Examples:
     >>> import jax.numpy as jnp
     >>> from gfxlab import brdf
     >>> n = jnp.array([0.0, 0.0, 1.0])

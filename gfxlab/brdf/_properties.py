@@ -82,14 +82,14 @@ def reciprocity_error(
     - `key`: the `jax.random` key that draws them (e.g. `jax.random.key(0)`); needed
       unless both `wi` and `wo` are given.
 
-    Example:
+    **Returns:** a scalar in [0, 1] (0/0 counts as 0).
+
+    Examples:
         >>> import jax
         >>> from gfxlab import brdf
         >>> error = brdf.reciprocity_error(brdf.CookTorrance(0.3), key=jax.random.key(0))
         >>> bool(error < 1e-4)  # reciprocal, to rounding
         True
-
-    **Returns:** a scalar in [0, 1] (0/0 counts as 0).
     """
     check_brdf(brdf)
     num_samples = static_int(num_samples, "num_samples", minimum=1, maximum=MAX_SAMPLES)

@@ -26,7 +26,7 @@ W/(sr m^2 nm) is a luminance in cd/m^2, Y of a spectral flux in W/nm is a lumino
 flux in lm. The two rules differ only in the half weights at the two ends of the
 grid, where the observer functions are nearly zero.
 
-Example:
+Examples:
     >>> import jax.numpy as jnp
     >>> from gfxlab import color
     >>> wl = color.CIE_WAVELENGTHS

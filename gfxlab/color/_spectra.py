@@ -79,7 +79,7 @@ def spectrum_to_xyz(
 
     **Returns:** `(..., 3)` XYZ.
 
-    Example:
+    Examples:
         >>> from gfxlab import color
         >>> wl = color.CIE_WAVELENGTHS
         >>> white = color.spectrum_to_xyz(wl, wl * 0 + 1.0, k=None)  # equal energy, Y = 100

@@ -16,7 +16,7 @@ Conventions:
 - NaN/inf inputs, `None` and oversized static sizes (`MAX_DEGREE`, `MAX_BSPLINE_DEGREE`,
   `MAX_CONTROL_POINTS`, `MAX_RESOLUTION`) are clear errors naming the argument.
 
-Example:
+Examples:
     >>> import jax.numpy as jnp
     >>> from gfxlab import curves
     >>> abcd = jnp.array([[1, 1], [2, 3], [4, 3], [6, 4.0]])

@@ -5,7 +5,8 @@ bit-exact integer versions libjpeg uses live in `gfxlab.jpeg._libjpeg`. Samples 
 on JPEG's 0..255 scale from `level_shift` on; colour conversion works on images in
 [0, 1] (multiply by 255 for JFIF's 0..255 values).
 
-Example (the exam's Q5f block, given level-shifted in the answer key):
+Examples:
+    The exam's Q5f block, given level-shifted in the answer key:
 
     >>> import numpy as np
     >>> shifted = np.array([
