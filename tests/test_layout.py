@@ -1,5 +1,6 @@
 """Rooms of a readable size (issue 16): no module over 600 lines and no function over 80
-lines in `gfxlab/`, data-table modules aside.
+lines in `gfxlab/`, data-table modules aside; and the architecture page's module map
+names every module.
 
 A function counts from its `def` line to its last line (docstring included); a
 decorator does not count. Run as a script to list the offenders:
@@ -50,6 +51,20 @@ def test_no_module_over_600_and_no_function_over_80_lines():
 
 def test_the_data_table_list_names_existing_modules():
     missing = sorted(name for name in DATA_TABLES if not (PACKAGE / name).is_file())
+    assert missing == []
+
+
+def test_the_module_map_names_every_module():
+    """docs/architecture.md's module map names every module and package of gfxlab/."""
+    text = (PACKAGE.parent / "docs" / "architecture.md").read_text(encoding="utf-8")
+    missing = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        parts = path.relative_to(PACKAGE).with_suffix("").parts
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        dotted = ".".join(("gfxlab",) + parts)
+        if parts and f"`{dotted}`" not in text and f"`{parts[-1]}`" not in text:
+            missing.append(dotted)
     assert missing == []
 
 
