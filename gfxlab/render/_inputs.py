@@ -99,35 +99,6 @@ def check_render_inputs(mesh, camera, vertices, attributes):
     return vertices, camera, batched, attributes
 
 
-def _render_capacity(
-    mesh,
-    vertices,
-    camera,
-    batched_camera,
-    sigma,
-    soft,
-    eps,
-    shape,
-    tile_size,
-    capacity,
-    cull_backfaces,
-):
-    """The tile capacity: measured from the projected geometry when it is concrete."""
-    traced = any_traced(mesh, vertices, camera, sigma)
-    tri = valid = None
-    if not traced:
-
-        def project(v, c):
-            return project_faces(v, mesh.faces, c, shape, cull_backfaces=cull_backfaces)
-
-        axes = (0 if vertices.ndim == 3 else None, 0 if batched_camera else None)
-        if axes != (None, None):
-            project = jax.vmap(project, in_axes=axes)
-        tri, _, _, valid = project(vertices, camera)
-    margin = jnp.sqrt(sigma * logit_limit(eps)) if soft else jnp.zeros((), vertices.dtype)
-    return resolve_capacity(capacity, tri, valid, margin, shape, tile_size, traced, mesh.num_faces)
-
-
 def render_options(mesh, dtype, sigma, gamma, ambient, background, eps, eps_background, sizes):
     """`render`'s checked numeric options: `(params, ambient, background, sizes)` with
     `params = (sigma, gamma, eps_background)` and `sizes = (tile_size, capacity,
@@ -175,18 +146,20 @@ def render_config(mesh, vertices, camera, batched, sigma, mode, shape, *, eps, s
     tile_size, capacity, tiles_per_step = sizes
     antialias, cull_backfaces, reference = flags
     soft = mode == "soft"
-    capacity = _render_capacity(
-        mesh,
-        vertices,
-        camera,
-        batched,
-        sigma,
-        soft,
-        eps,
-        shape,
-        tile_size,
-        capacity,
-        cull_backfaces,
+    traced = any_traced(mesh, vertices, camera, sigma)
+    tri = valid = None
+    if not traced:  # measure the capacity from the projected geometry
+
+        def project(v, c):
+            return project_faces(v, mesh.faces, c, shape, cull_backfaces=cull_backfaces)
+
+        axes = (0 if vertices.ndim == 3 else None, 0 if batched else None)
+        if axes != (None, None):
+            project = jax.vmap(project, in_axes=axes)
+        tri, _, _, valid = project(vertices, camera)
+    margin = jnp.sqrt(sigma * logit_limit(eps)) if soft else jnp.zeros((), vertices.dtype)
+    capacity = resolve_capacity(
+        capacity, tri, valid, margin, shape, tile_size, traced, mesh.num_faces
     )
     return RenderConfig(
         shape,
