@@ -155,9 +155,13 @@ def _check_rotation(matrix: jax.Array, name: str) -> jax.Array:
 
 @functools.partial(checked_jit, static_argnums=1)
 def _rotation_checked(matrix, name: str):
-    gram = jnp.swapaxes(matrix, -1, -2) @ matrix
+    # The check needs no derivative; the triple product is the 3x3 determinant without
+    # an LU factorisation (which would make every gradient program much larger).
+    m = jax.lax.stop_gradient(matrix)
+    gram = jnp.swapaxes(m, -1, -2) @ m
     tol = 1e-5 if matrix.dtype == jnp.float64 else 1e-3
-    bad = (jnp.max(jnp.abs(gram - jnp.eye(3)), axis=(-2, -1)) > tol) | (jnp.linalg.det(matrix) <= 0)
+    det = jnp.sum(m[..., 0, :] * jnp.cross(m[..., 1, :], m[..., 2, :]), axis=-1)
+    bad = (jnp.max(jnp.abs(gram - jnp.eye(3)), axis=(-2, -1)) > tol) | (det <= 0)
     return value_error_if(matrix, bad, f"`{name}` must be a rotation matrix (orthonormal, det +1)")
 
 

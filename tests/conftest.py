@@ -71,3 +71,33 @@ def pytest_sessionfinish(session, exitstatus):
     ]
     if runs:
         _runner.write_index(out, runs)
+
+
+# `GFXLAB_COMPILE_PROFILE=FILE pytest ...` appends one line per test to FILE: the seconds
+# spent compiling (XLA), the number of compiled programs and the test's wall time; sort it
+# to see which tests pay for compilation (the suite's budget is mostly compile time).
+_PROFILE = os.environ.get("GFXLAB_COMPILE_PROFILE")
+if _PROFILE:
+    import time
+
+    import jax.monitoring
+
+    _compiled = [0.0, 0]
+
+    def _on_duration(event, duration, **_):
+        if event == "/jax/core/compile/backend_compile_duration":
+            _compiled[0] += duration
+            _compiled[1] += 1
+
+    jax.monitoring.register_event_duration_secs_listener(_on_duration)
+
+    @pytest.hookimpl(hookwrapper=True)
+    def pytest_runtest_call(item):
+        before, start = list(_compiled), time.perf_counter()
+        yield
+        wall = time.perf_counter() - start
+        with open(_PROFILE, "a") as out:
+            out.write(
+                f"{_compiled[0] - before[0]:8.2f} {_compiled[1] - before[1]:5d} "
+                f"{wall:8.2f} {item.nodeid}\n"
+            )

@@ -157,7 +157,7 @@ GRADIENT_CASES = {
 @pytest.mark.parametrize("name", list(GRADIENT_CASES))
 def test_gradients(name):
     fn, args = GRADIENT_CASES[name]
-    check_grads(jax.jit(fn), args, order=2)
+    check_grads(jax.jit(fn), args, order=1, modes=["rev"])
 
 
 @pytest.mark.parametrize(
