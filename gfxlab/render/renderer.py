@@ -36,6 +36,7 @@ from .._checks import (
     check_finite,
     check_shape,
     is_traced,
+    trusted_values,
 )
 from .._pixels import pixel_centers
 from ..mesh import Mesh, check_faces, vertex_normals
@@ -371,7 +372,8 @@ def _render_view(mesh, vertices, camera, extras, config: RenderConfig):
 @functools.partial(jax.jit, static_argnames=("config",))
 def _render_jit(mesh, vertices, camera, extras, *, config: RenderConfig):
     def one(v, c):
-        return _render_view(mesh, v, c, extras, config)
+        with trusted_values():  # `render` checked every input
+            return _render_view(mesh, v, c, extras, config)
 
     if config.batched_vertices or config.batched_camera:
         axes = (0 if config.batched_vertices else None, 0 if config.batched_camera else None)
