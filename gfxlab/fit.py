@@ -222,25 +222,45 @@ def _setup(fn, params, fixed, bounds):
     return problem, unflat(z)
 
 
-@eqx.filter_jit
+#: `_describe`'s answers, keyed by the static parts of its arguments and the shapes and
+#: dtypes of their arrays (bounded: cleared when full).
+_DESCRIBED: dict = {}
+
+
 def _describe(problem, z, args):
-    """Whether `fn` returns a scalar, and its output structure. Only static values come
-    out, so the compiled program is empty (the initial loss comes from the first compiled
-    step); `filter_jit` caches the trace for a refit."""
+    """Whether `fn` returns a scalar, and its output structure, from `eqx.filter_eval_shape`
+    (a trace, nothing compiled: a jitted version would compile `fn`'s whole forward pass
+    when it holds effects such as `eqx.error_if`), cached so a refit does not retrace."""
+    leaves, treedef = jax.tree_util.tree_flatten((problem, z, args))
+    key = (treedef,) + tuple(
+        (v.shape, v.dtype, bool(getattr(v, "weak_type", False)))
+        if eqx.is_array(v)
+        else (type(v), v)
+        for v in leaves
+    )
     try:
-        out = problem.output(z, args)
+        return _DESCRIBED[key]
+    except TypeError:  # an unhashable static leaf: no caching
+        key = None
+    except KeyError:
+        pass
+    try:
+        out = eqx.filter_eval_shape(problem.output, z, args)
     except FitError:
         raise
     except Exception as err:
         raise FitError(f"calling `fn` with the initial parameters failed: {err}") from err
-    leaves = jax.tree_util.tree_leaves(out)
-    if not leaves or not all(eqx.is_array(v) for v in leaves):
+    out_leaves = jax.tree_util.tree_leaves(out)
+    if not out_leaves or not all(isinstance(v, jax.ShapeDtypeStruct) for v in out_leaves):
         raise FitError(
             "`fn` must return an array (residuals or a scalar loss) or a pytree of arrays"
         )
-    scalar = len(leaves) == 1 and leaves[0].shape == ()
-    struct = jax.tree_util.tree_map(lambda v: jax.ShapeDtypeStruct(v.shape, v.dtype), out)
-    return scalar, struct
+    answer = (len(out_leaves) == 1 and out_leaves[0].shape == ()), out
+    if key is not None:
+        if len(_DESCRIBED) >= 256:
+            _DESCRIBED.clear()
+        _DESCRIBED[key] = answer
+    return answer
 
 
 # ------------------------------------------------------------------ compiled steps
@@ -270,22 +290,27 @@ def _keep_best(best, z, loss, step):
 
 @eqx.filter_jit
 def _optax_chunk(problem, optimizer, state, args, n):
-    """`n` optax steps. The loss of each iterate comes from the same evaluation as its
-    gradient; one more evaluation gives the loss after the last step."""
+    """`n` optax steps, scanned as `n + 1` evaluations of the loss and its gradient: the
+    last one only gives the loss after the last step (its update is dropped). So `fn` is
+    compiled once, inside the loop, not a second time after it (half the compile time of
+    a cheap step; one extra gradient per chunk at run time)."""
     value_and_grad = jax.value_and_grad(problem.loss)
 
-    def step(carry, _):
+    def step(carry, k):
         z, opt_state, best, i = carry
         loss, grads = value_and_grad(z, args)
         best = _keep_best(best, z, loss, i)
-        updates, opt_state = optimizer.update(grads, opt_state, z)
-        return (optax.apply_updates(z, updates), opt_state, best, i + 1), loss
+        updates, new_state = optimizer.update(grads, opt_state, z)
+        move = k < n  # False only for the last evaluation
+        z, opt_state = jax.tree_util.tree_map(
+            lambda new, old: jnp.where(move, new, old),
+            (optax.apply_updates(z, updates), new_state),
+            (z, opt_state),
+        )
+        return (z, opt_state, best, i + move.astype(i.dtype)), loss
 
-    (z, opt_state, best, i), losses = jax.lax.scan(step, state, None, length=n)
-    last = problem.loss(z, args)
-    best = _keep_best(best, z, last, i)
-    entry, losses = losses[0], jnp.concatenate([losses[1:], last[None]])
-    return (z, opt_state, best, i), losses, jnp.zeros(losses.shape, bool), entry
+    (z, opt_state, best, i), losses = jax.lax.scan(step, state, jnp.arange(n + 1))
+    return (z, opt_state, best, i), losses[1:], jnp.zeros(n, bool), losses[0]
 
 
 def _optimistix_fn(problem, least_squares: bool, scalar: bool):
