@@ -150,27 +150,23 @@ def test_wheel_installs_and_reads_its_data_outside_the_checkout(wheel, tmp_path)
         capture_output=True,
         text=True,
     )
-    run = subprocess.run(
-        [str(python), "-c", SMOKE],
-        cwd=tmp_path,
-        env=CLEAN_ENV,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert run.returncode == 0, run.stdout + run.stderr
-    assert run.stdout.strip().endswith("ok")
+
+    def installed(*args):  # the venv's python, outside the checkout, without PYTHONPATH
+        run = subprocess.run(
+            [str(python), *args],
+            cwd=tmp_path,
+            env=CLEAN_ENV,
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        assert run.returncode == 0, run.stdout + run.stderr
+        return run.stdout
+
+    assert installed("-c", SMOKE).strip().endswith("ok")
     # A student's first step after `pip install gfxlab[lab]`: the labs, copied by the CLI.
     copied = tmp_path / "my_labs"
-    cli = subprocess.run(
-        [str(python), "-m", "gfxlab", "labs", "--copy", str(copied)],
-        cwd=tmp_path,
-        env=CLEAN_ENV,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
-    assert cli.returncode == 0, cli.stdout + cli.stderr
+    out = installed("-m", "gfxlab", "labs", "--copy", str(copied))
     names = sorted(p.name for p in copied.glob("*.ipynb"))
     assert len(names) >= 10 and all(n[:2].isdigit() for n in names), names
-    assert f"copied {len(names)} labs" in cli.stdout, cli.stdout
+    assert f"copied {len(names)} labs" in out, out
