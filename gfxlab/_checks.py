@@ -465,3 +465,13 @@ def safe_normalize(x: jax.Array, axis: int = -1) -> jax.Array:
     """`x / |x|` along `axis`; the zero vector stays zero with finite gradients."""
     length = safe_norm(x, axis=axis, keepdims=True)
     return x / jnp.where(length > 0, length, 1.0)
+
+
+def checked_unit(x: jax.Array, message: str, *, tiny=0.0, axis: int = -1) -> jax.Array:
+    """`safe_normalize(x)`, refusing (`value_error_if(..., message)`) a length `<= tiny`.
+
+    For directions that must exist (a rotation axis, a mirror normal, a viewing
+    direction): the zero vector is always refused; `tiny` also refuses near-zero ones.
+    """
+    x = value_error_if(x, safe_norm(x, axis=axis, keepdims=True) <= tiny, message)
+    return safe_normalize(x, axis=axis)

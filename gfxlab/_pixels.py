@@ -22,12 +22,15 @@ from ._checks import as_numeric, check_last_dim, static_int, static_shape
 
 __all__ = [
     "pixel_to_index",
+    "row_to_y",
     "index_to_pixel",
     "image_extent",
     "pixel_centers",
     "subpixel_offsets",
     "to_uint8",
     "to_float",
+    "to_levels",
+    "from_levels",
     "MAX_IMAGE_SIDE",
     "checked_shape",
 ]
@@ -35,6 +38,15 @@ __all__ = [
 #: Largest height or width of an image that a function allocates from a static `shape`
 #: argument (a documented size limit: a larger value is refused before allocating).
 MAX_IMAGE_SIDE = 16384
+
+
+def row_to_y(row, height: int):
+    """The y (up) of the pixel centres in array row `row` of an image `height` rows high.
+
+    The flip is its own inverse: `row_to_y(y, height)` is the row of height `y`. Works
+    on Python ints, NumPy and JAX arrays alike (inside a trace too).
+    """
+    return height - 1 - row
 
 
 def pixel_to_index(xy: Int[Array, "*batch 2"], shape: tuple[int, int]) -> Int[Array, "*batch 2"]:
@@ -93,7 +105,7 @@ def image_extent(shape: tuple[int, int]) -> tuple[float, float, float, float]:
     return (-0.5, width - 0.5, -0.5, height - 0.5)
 
 
-def pixel_centers(shape: tuple[int, int], dtype=None) -> Float[Array, "H W 2"]:
+def pixel_centers(shape: tuple[int, int], *, dtype=None) -> Float[Array, "H W 2"]:
     """The centre `(x, y)` of every pixel of an `(H, W)` image, laid out like the image.
 
     `pixel_centers(shape)[row, col] == (col, H - 1 - row)`.
@@ -104,7 +116,7 @@ def pixel_centers(shape: tuple[int, int], dtype=None) -> Float[Array, "H W 2"]:
     return jnp.stack([cols, height - 1 - rows], axis=-1).astype(dtype)
 
 
-def subpixel_offsets(samples_per_axis: int, dtype=None) -> Float[Array, "S 2"]:
+def subpixel_offsets(samples_per_axis: int, *, dtype=None) -> Float[Array, "S 2"]:
     """Offsets `(dx, dy)` of an `n x n` regular grid of samples inside one pixel.
 
     The samples sit at the centres of the `n x n` sub-cells of the pixel square
@@ -154,6 +166,20 @@ def to_uint8(image, name: str = "image") -> np.ndarray:
             )
         return arr.astype(np.uint8)
     raise TypeError(f"`{name}` must be a float image in [0, 1] or uint8, got dtype {arr.dtype}")
+
+
+def to_levels(image: jax.Array) -> jax.Array:
+    """Inside a trace: floats in [0, 1] to the int32 levels 0..255 `to_uint8` writes.
+
+    Clipped, scaled by 255 and rounded half to even, like `to_uint8`, but traceable
+    (no checks: for code that models a file format, e.g. the JPEG encoder).
+    """
+    return jnp.round(jnp.clip(image, 0.0, 1.0) * 255.0).astype(jnp.int32)
+
+
+def from_levels(levels: jax.Array, dtype) -> jax.Array:
+    """Inside a trace: levels 0..255 (any number type) back to floats in [0, 1] of `dtype`."""
+    return levels.astype(dtype) / 255.0
 
 
 def to_float(image, name: str = "image", *, dtype=None) -> jax.Array:

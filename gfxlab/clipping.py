@@ -390,7 +390,7 @@ def _clip_stage(points, count, inside_fn, intersect_fn, size_out):
 
 
 def sutherland_hodgman(
-    polygon: Float[Array, "V 2"], window: Float[Array, "4"], *, max_vertices: int | None = None
+    vertices: Float[Array, "V 2"], window: Float[Array, "4"], *, max_vertices: int | None = None
 ) -> tuple[Float[Array, "M 2"], Bool[Array, " M"]]:
     """Sutherland-Hodgman polygon clipping against a rectangular window.
 
@@ -405,7 +405,7 @@ def sutherland_hodgman(
 
     **Arguments:**
 
-    - `polygon`: `(V, 2)` vertices in order (either orientation), `V >= 3`.
+    - `vertices`: `(V, 2)` polygon vertices in order (either orientation), `V >= 3`.
     - `window`: `(xmin, ymin, xmax, ymax)` with `xmax > xmin`, `ymax > ymin`.
     - `max_vertices`: size `M` of the output buffer (static); default `2 V + 8`, which
       a convex polygon never exceeds (it gains at most one vertex per window edge).
@@ -415,20 +415,20 @@ def sutherland_hodgman(
     in order (invalid rows are 0), and the `(M,)` mask. No valid vertex when the
     polygon misses the window.
     """
-    polygon, window = common_finite(polygon, window, names=("polygon", "window"))
-    check_shape(polygon, "polygon", (None, 2))
-    if polygon.shape[0] < 3:
+    vertices, window = common_finite(vertices, window, names=("vertices", "window"))
+    check_shape(vertices, "vertices", (None, 2))
+    if vertices.shape[0] < 3:
         raise ValueError(
-            f"`polygon` must have at least 3 vertices, got shape {tuple(polygon.shape)}"
+            f"`vertices` must hold at least 3 polygon vertices, got shape {tuple(vertices.shape)}"
         )
     w = _window(window)
-    count_in = polygon.shape[0]
+    count_in = vertices.shape[0]
     size = (
         2 * count_in + 8
         if max_vertices is None
         else static_int(max_vertices, "max_vertices", minimum=3, maximum=MAX_VERTICES)
     )
-    points, count, needed = _sutherland_hodgman(polygon, w, size)
+    points, count, needed = _sutherland_hodgman(vertices, w, size)
     points = value_error_if(
         points,
         needed > size,

@@ -32,11 +32,10 @@ from ._checks import (
     check_rect,
     check_shape,
     checked_jit,
+    checked_unit,
     common_finite,
     finite_float,
     safe_divide,
-    safe_norm,
-    value_error_if,
 )
 from ._rotations import (
     ROTATION_REPRESENTATIONS,
@@ -174,9 +173,7 @@ def rotate_axis(axis: Float[Array, "*batch 3"], angle: Float[Array, "*batch"]) -
 
 @checked_jit
 def _rotate_axis(axis, angle):
-    length = safe_norm(axis, keepdims=True)
-    axis = value_error_if(axis, length == 0, "`axis` must be a non-zero 3-vector")
-    k = axis / jnp.where(length == 0, 1.0, length)
+    k = checked_unit(axis, "`axis` must be a non-zero 3-vector")
     zero = jnp.zeros_like(k[..., 0])
     cross = jnp.stack(
         [
@@ -306,9 +303,7 @@ def reflection(
 
 @checked_jit
 def _reflect(normal, point):
-    length = safe_norm(normal, keepdims=True)
-    normal = value_error_if(normal, length == 0, "`normal` must be a non-zero vector")
-    n = normal / jnp.where(length == 0, 1.0, length)
+    n = checked_unit(normal, "`normal` must be a non-zero vector")
     householder = jnp.eye(n.shape[-1], dtype=n.dtype) - 2 * n[..., :, None] * n[..., None, :]
     if point is None:
         return _embed(householder)

@@ -23,6 +23,7 @@ from ._checks import (
     check_last_dim,
     check_range,
     checked_jit,
+    checked_unit,
     common_finite,
     finite_float,
     safe_norm,
@@ -47,10 +48,7 @@ __all__ = [
 
 
 def _unit(v: jax.Array, message: str, scale=None) -> jax.Array:
-    length = safe_norm(v, keepdims=True)
-    tiny = 0.0 if scale is None else 1e-12 * scale
-    v = value_error_if(v, length <= tiny, message)
-    return v / jnp.where(length == 0, 1.0, length)
+    return checked_unit(v, message, tiny=0.0 if scale is None else 1e-12 * scale)
 
 
 def look_at(

@@ -264,7 +264,7 @@ def test_clipping_bad_inputs():
         clipping.cohen_sutherland_trace(jnp.zeros((3, 2)), WINDOW)
     with pytest.raises(TypeError, match="concrete"):
         jax.jit(clipping.cohen_sutherland_trace)(jnp.zeros((2, 2)), jnp.asarray(WINDOW))
-    with pytest.raises(ValueError, match="polygon"):
+    with pytest.raises(ValueError, match="`vertices` must hold at least 3 polygon"):
         clipping.sutherland_hodgman(jnp.zeros((2, 2)), WINDOW)
     with pytest.raises(ValueError, match="max_vertices"):
         clipping.sutherland_hodgman(jnp.zeros((4, 2)), WINDOW, max_vertices=2)
@@ -313,7 +313,7 @@ TRI = jnp.array([[0.0, 0.0], [12.0, 0.0], [6.0, 9.0]])
         (
             lambda: clipping.sutherland_hodgman(TRI.at[1, 0].set(INF), WINDOW),
             ValueError,
-            "`polygon` must be finite",
+            "`vertices` must be finite",
         ),
         (
             lambda: clipping.sutherland_hodgman(TRI, WINDOW, max_vertices=10**12),
@@ -364,7 +364,7 @@ def test_non_finite_and_huge_inputs_are_rejected_naming_the_argument(call, error
         (
             lambda p: clipping.sutherland_hodgman(p, WINDOW)[0],
             TRI.at[0, 0].set(NAN),
-            "`polygon` must be finite",
+            "`vertices` must be finite",
         ),
     ],
 )

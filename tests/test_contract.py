@@ -103,7 +103,7 @@ BASELINES = {
     "viewing.ndc_to_pixels": {"ndc_points": [[0.1, 0.2, 0.3]]},
     "clipping.outcode": {"points": [[0.5, 0.5], [3.0, 0.5]]},
     "clipping.cohen_sutherland_trace": {"segment": [[-1.0, 0.5], [2.0, 0.5]]},
-    "clipping.sutherland_hodgman": {"polygon": [[-1.0, -1.0], [2.0, 0.0], [0.5, 2.0]]},
+    "clipping.sutherland_hodgman": {"vertices": [[-1.0, -1.0], [2.0, 0.0], [0.5, 2.0]]},
     "clipping.polygon_area": {"vertices": [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]},
     "fit.fit": {"fn": "<fit-fn>", "params": [0.0, 0.0], "max_steps": 3},
 }

@@ -1,5 +1,9 @@
 """The wheel is whole: built from the checkout, installed outside it, every data file found.
 
+The wheel is built from a clean copy of the tracked files (`git ls-files`), so a
+stale `build/` folder of the checkout (modules that were since split or removed)
+cannot leak into it; its Python modules must be exactly the tracked ones.
+
 The wheel goes into a fresh virtual environment in a temporary directory. Its
 dependencies are not downloaded again: the environment sees the test run's own
 site-packages through a `.pth` path entry (appended after the wheel's own folder, and
@@ -8,7 +12,11 @@ out of sight). The smoke test then runs from a directory outside the checkout an
 checks that gfxlab was imported from the wheel.
 """
 
+import email.parser
+import os
 import pathlib
+import re
+import shutil
 import subprocess
 import sys
 import sysconfig
@@ -33,15 +41,37 @@ assert scene.ndim == 3, scene.shape
 labs = sorted(p.name for p in _resources.labs_dir().glob("[0-9]*.ipynb"))
 assert len(labs) >= 10, labs
 assert not (_resources.labs_dir() / "assignments").exists(), "assignment sources shipped"
-with tempfile.TemporaryDirectory() as tmp:
-    assert len(_resources.copy_labs(tmp)) == len(labs)
 print("ok")
 """
+
+# Notebook tooling belongs to the `lab` extra: a plain `pip install gfxlab` must not pull it.
+NOTEBOOK_TOOLS = re.compile(r"^(jupyter|ipywidgets|nbclient|nbconvert|notebook)", re.IGNORECASE)
+
+
+# The installed copy must be found through the venv alone, not a PYTHONPATH to the checkout.
+CLEAN_ENV = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+
+
+def _tracked_files() -> list[str]:
+    listing = subprocess.run(
+        ["git", "ls-files", "-z"], cwd=ROOT, check=True, capture_output=True, text=True
+    ).stdout
+    return [name for name in listing.split("\0") if name and (ROOT / name).is_file()]
+
+
+def _clean_copy(destination: pathlib.Path) -> pathlib.Path:
+    """The tracked files of the checkout (as in the working tree) and nothing else."""
+    for name in _tracked_files():
+        target = destination / name
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(ROOT / name, target)
+    return destination
 
 
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory) -> pathlib.Path:
     out = tmp_path_factory.mktemp("wheel")
+    source = _clean_copy(tmp_path_factory.mktemp("source"))
     subprocess.run(
         [
             sys.executable,
@@ -53,7 +83,7 @@ def wheel(tmp_path_factory) -> pathlib.Path:
             "-q",
             "-w",
             str(out),
-            str(ROOT),
+            str(source),
         ],
         check=True,
         capture_output=True,
@@ -74,6 +104,35 @@ def test_wheel_ships_data_and_labs_but_no_assignment_sources(wheel):
     assert not any(n.startswith(("tests/", "data/", "labs/")) for n in names)
 
 
+def test_wheel_modules_are_exactly_the_tracked_sources(wheel):
+    names = zipfile.ZipFile(wheel).namelist()
+    shipped = {
+        n
+        for n in names
+        if n.startswith("gfxlab/")
+        and n.endswith(".py")
+        and not n.startswith(("gfxlab/_data/", "gfxlab/_labs/"))
+    }
+    tracked = {n for n in _tracked_files() if n.startswith("gfxlab/") and n.endswith(".py")}
+    assert shipped == tracked, (sorted(shipped - tracked), sorted(tracked - shipped))
+    # The data and lab subpackages hold only their package markers as code.
+    resource_code = {n for n in names if n.startswith(("gfxlab/_data/", "gfxlab/_labs/"))}
+    resource_code = {n for n in resource_code if n.endswith(".py")}
+    assert resource_code == {"gfxlab/_data/__init__.py", "gfxlab/_labs/__init__.py"}
+
+
+def test_wheel_runtime_requirements_leave_out_the_notebook_server(wheel):
+    with zipfile.ZipFile(wheel) as archive:
+        (meta_name,) = [n for n in archive.namelist() if n.endswith(".dist-info/METADATA")]
+        metadata = email.parser.Parser().parsestr(archive.read(meta_name).decode())
+    requires = metadata.get_all("Requires-Dist") or []
+    runtime = [r for r in requires if "extra ==" not in r]
+    assert any(r.startswith("jax") for r in runtime), runtime
+    assert not [r for r in runtime if NOTEBOOK_TOOLS.match(r)], runtime
+    extras = [r for r in requires if "extra == " in r and NOTEBOOK_TOOLS.match(r)]
+    assert any("jupyterlab" in r for r in extras), requires
+
+
 def test_wheel_installs_and_reads_its_data_outside_the_checkout(wheel, tmp_path):
     env_dir = tmp_path / "venv"
     venv.EnvBuilder(with_pip=False).create(env_dir)
@@ -91,8 +150,23 @@ def test_wheel_installs_and_reads_its_data_outside_the_checkout(wheel, tmp_path)
         capture_output=True,
         text=True,
     )
-    run = subprocess.run(
-        [str(python), "-c", SMOKE], cwd=tmp_path, capture_output=True, text=True, timeout=300
-    )
-    assert run.returncode == 0, run.stdout + run.stderr
-    assert run.stdout.strip().endswith("ok")
+
+    def installed(*args):  # the venv's python, outside the checkout, without PYTHONPATH
+        run = subprocess.run(
+            [str(python), *args],
+            cwd=tmp_path,
+            env=CLEAN_ENV,
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        assert run.returncode == 0, run.stdout + run.stderr
+        return run.stdout
+
+    assert installed("-c", SMOKE).strip().endswith("ok")
+    # A student's first step after `pip install gfxlab[lab]`: the labs, copied by the CLI.
+    copied = tmp_path / "my_labs"
+    out = installed("-m", "gfxlab", "labs", "--copy", str(copied))
+    names = sorted(p.name for p in copied.glob("*.ipynb"))
+    assert len(names) >= 10 and all(n[:2].isdigit() for n in names), names
+    assert f"copied {len(names)} labs" in out, out

@@ -27,6 +27,7 @@ from .._checks import (
     check_shape,
     checked_jit,
     safe_divide,
+    safe_normalize,
     static_int,
     value_error_if,
 )
@@ -427,7 +428,7 @@ def _rotations_kernel(times, quats, t, *, method):
 
 def _rotations(times, quats, t, *, method):
     """The unchecked rotation interpolation (keys already validated)."""
-    q = _align_signs(quats / jnp.linalg.norm(quats, axis=-1, keepdims=True))
+    q = _align_signs(safe_normalize(quats))
     k = times.shape[0]
     if method == "step" or k == 1:
         return _interp(times, q, t, None, None, method="step")

@@ -447,7 +447,7 @@ def _springs_kernel(position, velocity, anchor, dt, params, *, verlet):
     def accel(x, v):
         delta = x[b_idx] - x[a_idx]
         length = safe_norm(delta, keepdims=True)
-        direction = delta / jnp.where(length > 0, length, 1.0)
+        direction = safe_normalize(delta)
         f = (stiffness * (length[:, 0] - rest_length))[:, None] * direction
         force = jnp.zeros_like(x).at[a_idx].add(f).at[b_idx].add(-f)
         return force / mass[:, None] + g - damping * v

@@ -121,7 +121,7 @@ def _exp(v):
     return jnp.concatenate([jnp.cos(theta), sinc * v], axis=-1)
 
 
-def quat_identity(dtype=None) -> Float[Array, "4"]:
+def quat_identity(*, dtype=None) -> Float[Array, "4"]:
     """The identity rotation `(1, 0, 0, 0)`."""
     return jnp.array([1.0, 0.0, 0.0, 0.0], dtype=dtype)
 

@@ -1,6 +1,6 @@
 """The seed exam, solved step by step with gfxlab.
 
-Every question of the exam in `shared/seed/` (Q1a..Q5f, with the unnumbered Bezier
+Every question of the course's exam (Q1a..Q5f, with the unnumbered Bezier
 question of section 4 as Q4f) is registered here with its marks and a `solve()` that
 computes the answer with the library itself and returns the steps (numbers, matrices,
 tables), the mistakes found in the answer key, a pointer to the lab section and

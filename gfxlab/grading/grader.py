@@ -287,11 +287,30 @@ class Autograder:
     """An assignment's autograder directory: configuration, tests, reference solution."""
 
     def __init__(self, directory, *, warm: bool = False, limits=None):
-        self.directory = pathlib.Path(directory).resolve()
-        config_path = self.directory / "config.json"
+        directory = pathlib.Path(directory).resolve()
+        config_path = directory / "config.json"
         if not config_path.is_file():
             raise FileNotFoundError(f"{config_path} not found: is this an autograder directory?")
-        self.config = json.loads(config_path.read_text())
+        self._initialise(directory, json.loads(config_path.read_text()), warm=warm, limits=limits)
+
+    @classmethod
+    def without_tests(cls, directory, *, assignment: str, preload, forbid) -> Autograder:
+        """An autograder with no tests, for running a notebook's own test cells
+        (`gfxlab check`): the same sandbox, preloads and forbidden modules as `grade`.
+        """
+        grader = cls.__new__(cls)
+        config = {
+            "assignment": str(assignment),
+            "preload": list(preload),
+            "forbid": list(forbid),
+            "questions": [],
+        }
+        grader._initialise(pathlib.Path(directory).resolve(), config, warm=False, limits=None)
+        return grader
+
+    def _initialise(self, directory: pathlib.Path, config: dict, *, warm: bool, limits) -> None:
+        """The one place that sets the fields: both constructors end here."""
+        self.directory, self.config = directory, config
         # `warm`: keep one spare sandbox launched (the next submission's, under `limits`),
         # the first one before the tests load here (`import jax` in both at once).
         self.warm, self._spare = warm, None
@@ -306,29 +325,12 @@ class Autograder:
                     for t in q["tests"]
                 ],
             )
-            for q in self.config["questions"]
+            for q in config["questions"]
         ]
         self._namespaces = {
-            q.name: load_tests((self.directory / "tests" / f"{q.name}.py").read_text(), q.name)
+            q.name: load_tests((directory / "tests" / f"{q.name}.py").read_text(), q.name)
             for q in self.questions
         }
-
-    @classmethod
-    def without_tests(cls, directory, *, assignment: str, preload, forbid) -> Autograder:
-        """An autograder with no tests, for running a notebook's own test cells
-        (`gfxlab check`): the same sandbox, preloads and forbidden modules as `grade`.
-        """
-        grader = cls.__new__(cls)
-        grader.directory = pathlib.Path(directory).resolve()
-        grader.config = {
-            "assignment": str(assignment),
-            "preload": list(preload),
-            "forbid": list(forbid),
-            "questions": [],
-        }
-        grader.questions, grader._namespaces = [], {}
-        grader.warm, grader._spare = False, None
-        return grader
 
     @property
     def name(self) -> str:

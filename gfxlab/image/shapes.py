@@ -294,7 +294,7 @@ def _rasterize(shapes, shape, s, background):
             canvas = _paint_shape(canvas, sh, samples, px, py, dtype)
         return canvas
 
-    return supersample_values(paint_samples, shape, s, dtype, trailing=1)
+    return supersample_values(paint_samples, shape, s, dtype=dtype, trailing=1)
 
 
 def _paint_shape(canvas, sh, samples, px, py, dtype):

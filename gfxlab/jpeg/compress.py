@@ -18,6 +18,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Float
 
 from gfxlab._checks import check_range, check_shape, finite_float, value_error_if
+from gfxlab._pixels import from_levels, to_levels
 from gfxlab.jpeg import _libjpeg as L
 from gfxlab.jpeg import stages as S
 from gfxlab.jpeg._tables import SUBSAMPLING, ijg_tables
@@ -43,7 +44,7 @@ def exact_tables(quality) -> tuple[Array, Array]:
 
 
 def _exact(image, quality, factors):
-    u8 = jnp.clip(jnp.round(jax.lax.stop_gradient(image) * 255.0), 0, 255).astype(jnp.int32)
+    u8 = to_levels(jax.lax.stop_gradient(image))
     luma, chroma = exact_tables(jax.lax.stop_gradient(quality))
     height, width = image.shape[:2]
     if image.ndim == 2:
@@ -53,8 +54,8 @@ def _exact(image, quality, factors):
     coefs = L.forward(planes, factors, tables, jnp, traced_tables=True)
     planes = L.inverse(coefs, factors, tables, height, width, jnp)
     if image.ndim == 2:
-        return planes[0].astype(image.dtype) / 255.0
-    return L.ycc_to_rgb(*planes, jnp).astype(image.dtype) / 255.0
+        return from_levels(planes[0], image.dtype)
+    return from_levels(L.ycc_to_rgb(*planes, jnp), image.dtype)
 
 
 def _twin(image, quality, factors, rounding):

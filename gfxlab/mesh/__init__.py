@@ -36,7 +36,7 @@ from .._checks import (
     check_finite,
     check_shape,
     checked_jit,
-    safe_norm,
+    safe_normalize,
     static_int,
     value_error_if,
 )
@@ -105,7 +105,7 @@ def check_faces(faces, num_vertices: int, name: str = "faces") -> jax.Array:
     )
 
 
-def check_colors(colors, count: int, name: str = "colors", per: str = "vertex", dtype=None):
+def check_colors(colors, count: int, name: str = "colors", per: str = "vertex", *, dtype=None):
     """`colors` as a float `(count, C)` array: one colour per vertex (or per face).
 
     The one owner of color validation (`Mesh` and the hidden-surface methods call it).
@@ -114,20 +114,20 @@ def check_colors(colors, count: int, name: str = "colors", per: str = "vertex", 
     """
     _check_label(name)
     count = static_int(count, "count", minimum=0, maximum=MAX_ELEMENTS)
-    if per not in _PER:
-        raise ValueError(f"`per` must be one of {_PER}, got {per!r:.40}")
+    if not isinstance(per, str) or per not in _PER:
+        raise ValueError(f"`per` must be one of {tuple(_PER)}, got {per!r:.40}")
     colors = as_float(colors, name)
     if dtype is not None:
         colors = colors.astype(dtype)
     if colors.ndim != 2 or colors.shape[0] != count or not 1 <= colors.shape[1] <= 4:
         raise ValueError(
-            f"`{name}` must have shape ({count}, C), C = 1 to 4 (one color per {per}), got shape "
-            f"{tuple(colors.shape)}"
+            f"`{name}` must have shape ({count}, C), C = 1 to 4 (one color per {per}, "
+            f"{count} {_PER[per]}), got shape {tuple(colors.shape)}"
         )
     return check_finite(colors, name)
 
 
-_PER = ("vertex", "face", "triangle")
+_PER = {"vertex": "vertices", "face": "faces", "triangle": "triangles"}  # their plurals
 _LABEL = re.compile(r"[A-Za-z_][\w.]*(\[\d+\])?")
 
 
@@ -303,9 +303,7 @@ def _cross_normals(vertices, faces):
 
 @checked_jit
 def _face_normals_kernel(vertices, faces):
-    n = _cross_normals(*_checked(vertices, faces))
-    length = safe_norm(n, keepdims=True)
-    return n / jnp.where(length > 0, length, 1.0)
+    return safe_normalize(_cross_normals(*_checked(vertices, faces)))
 
 
 def vertex_normals(vertices: Float[Array, "V 3"], faces: Int[Array, "F 3"]) -> Float[Array, "V 3"]:
@@ -326,8 +324,7 @@ def _vertex_normals_kernel(vertices, faces):
     summed = jax.ops.segment_sum(
         jnp.repeat(area_normal, 3, axis=0), faces.reshape(-1), num_segments=vertices.shape[0]
     )
-    length = safe_norm(summed, keepdims=True)
-    return summed / jnp.where(length > 0, length, 1.0)
+    return safe_normalize(summed)
 
 
 # ---------------------------------------------------------------------------------------

@@ -51,14 +51,15 @@ def supersample(
 
 @eqx.filter_jit  # `fn` may be a plain function or a pytree (an `eqx.Module` with arrays)
 def _supersample(fn, shape, samples):
-    return supersample_values(fn, shape, samples, jnp.result_type(float))
+    return supersample_values(fn, shape, samples, dtype=jnp.result_type(float))
 
 
-def supersample_values(fn, shape: tuple[int, int], samples: int, dtype, *, trailing: int = 0):
+def supersample_values(fn, shape: tuple[int, int], samples: int, *, dtype, trailing: int = 0):
     """Inside a trace: the mean over each pixel's `samples x samples` samples of
     `fn(points)`, points `(H, W, samples^2, 2)`; `fn` may add `trailing` value axes
     (e.g. an RGB colour), which the result keeps: `(H, W, ...)`."""
-    samples = pixel_centers(shape, dtype)[:, :, None, :] + subpixel_offsets(samples, dtype)
+    offsets = subpixel_offsets(samples, dtype=dtype)
+    samples = pixel_centers(shape, dtype=dtype)[:, :, None, :] + offsets
     values = jnp.asarray(fn(samples))
     expected = samples.shape[:-1]
     if values.shape[:3] != expected or values.ndim != 3 + trailing:
@@ -106,7 +107,7 @@ def _polygon_coverage(vertices, shape):
 
 
 def _coverage(vertices, shape):
-    centres = pixel_centers(shape, vertices.dtype)
+    centres = pixel_centers(shape, dtype=vertices.dtype)
     x0 = centres[..., 0][..., None] - 0.5
     y0 = centres[..., 1][..., None] - 0.5
     x1, y1 = x0 + 1.0, y0 + 1.0

@@ -12,7 +12,7 @@ import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from .._checks import check_shape, static_int
-from .._pixels import checked_shape, pixel_to_index
+from .._pixels import checked_shape, pixel_to_index, row_to_y
 from ._args import array_arg, finite_arg, float_dtype, range_check
 
 __all__ = ["MAX_BEAM_STEPS", "BeamPath", "raster_scan", "random_scan", "phosphor_frames"]
@@ -115,7 +115,7 @@ def _raster_layout(height: int, width: int, interlaced: bool, h_retrace: int, v_
     xs = np.arange(width, dtype=float)
     for i, rows in enumerate(fields):  # one or two fields, not a loop over pixels
         n = rows.size
-        y = (height - 1 - rows).astype(float)
+        y = row_to_y(rows, height).astype(float)
         line_pos = np.stack(np.broadcast_arrays(xs[None, :], y[:, None]), -1)  # (n, W, 2)
         line_end = np.stack([np.full(n, width - 1.0), y], -1)
         next_start = np.stack([np.zeros(n), np.roll(y, -1)], -1)

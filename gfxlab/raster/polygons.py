@@ -8,7 +8,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, Bool, Float
 
 from .._checks import check_last_dim, check_shape
-from .._pixels import checked_shape, pixel_centers
+from .._pixels import checked_shape, pixel_centers, row_to_y
 from ._args import array_arg, finite_arg, float_dtype
 
 __all__ = ["inside_polygon", "fill_polygon", "fill_polygon_scanline"]
@@ -95,7 +95,7 @@ def fill_polygon(vertices: Float[Array, "V 2"], shape: tuple[int, int]) -> Bool[
 @jax.jit(static_argnames="shape")
 def _fill_polygon(vertices, shape):
     vertices = vertices.astype(float_dtype(vertices))
-    return even_odd(pixel_centers(shape, vertices.dtype), vertices)
+    return even_odd(pixel_centers(shape, dtype=vertices.dtype), vertices)
 
 
 def fill_polygon_scanline(
@@ -131,6 +131,6 @@ def _fill_polygon_scanline(vertices, shape):
         count = jnp.sum(x_cross[None, :] <= xs[:, None], axis=-1)
         return None, count % 2 == 1
 
-    ys = (height - 1 - jnp.arange(height)).astype(vertices.dtype)
+    ys = row_to_y(jnp.arange(height), height).astype(vertices.dtype)
     _, rows = jax.lax.scan(scan_line, None, ys)
     return rows

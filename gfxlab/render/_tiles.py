@@ -79,7 +79,7 @@ def tile_points(shape, tile_size, dtype):
     height, width = shape
     t = tile_size
     rows, cols = -(-height // t), -(-width // t)
-    grid = pixel_centers((rows * t, cols * t), dtype)
+    grid = pixel_centers((rows * t, cols * t), dtype=dtype)
     grid = grid.at[..., 1].add(height - rows * t)  # the padding lies below the image
     return grid.reshape(rows, t, cols, t, 2).transpose(0, 2, 1, 3, 4).reshape(-1, t * t, 2)
 
@@ -242,7 +242,7 @@ def tiled(
     """
     count = tri.shape[0]
     if reference:  # every pixel against every face, plain autodiff: the tests' reference
-        points = pixel_centers(shape, tri.dtype).reshape(-1, 2)
+        points = pixel_centers(shape, dtype=tri.dtype).reshape(-1, 2)
         out = pixel_fn(points, faces, valid, jnp.arange(count), params)
         return out.reshape(tuple(shape) + out.shape[1:]), jnp.zeros((), jnp.int32)
     box = _face_boxes(tri, margin)

@@ -27,7 +27,7 @@ from .._checks import (
     static_shape,
     value_error_if,
 )
-from .._pixels import pixel_centers
+from .._pixels import pixel_centers, row_to_y
 from ..mesh import check_colors
 from ._project import screen_scene
 from ._tiles import cross2
@@ -108,23 +108,12 @@ def _check_scene(triangles, colors, shape, background):
     height, width = static_shape(shape)
     triangles, colors = common_float(triangles, colors, names=("triangles", "colors"))
     check_shape(triangles, "triangles", (None, 3, 3))
-    if colors.ndim == 2 and colors.shape[0] != triangles.shape[0]:
-        raise ValueError(
-            f"`colors` must hold one colour per triangle of `triangles`: {triangles.shape[0]} "
-            f"triangles, got colors of shape {tuple(colors.shape)}"
-        )
-    colors = check_colors(colors, triangles.shape[0], per="triangle")
-    if not 1 <= colors.shape[1] <= 4:
-        raise ValueError(
-            f"`colors` must have 1 to 4 channels (grey, grey + alpha, RGB, RGBA), got shape "
-            f"{tuple(colors.shape)}"
-        )
+    colors = check_colors(colors, triangles.shape[0], per="triangle")  # (F, 1..4), finite
     background = as_float(background, "background").astype(colors.dtype)
     if background.ndim == 0:
         background = jnp.broadcast_to(background, colors.shape[1:])
     check_shape(background, "background", (colors.shape[1],))
     triangles = check_finite(triangles, "triangles")
-    colors = check_finite(colors, "colors")
     background = check_finite(background, "background")
     return (height, width), triangles, colors, background
 
@@ -214,7 +203,7 @@ def zbuffer(
 @functools.partial(jax.jit, static_argnames=("shape",))
 def _zbuffer(triangles, colors, background, *, shape):
     triangles, colors, valid = _scene(triangles, colors)
-    grid = pixel_centers(shape, triangles.dtype)
+    grid = pixel_centers(shape, dtype=triangles.dtype)
 
     def draw(carry, face):
         frame, depth, tests = carry
@@ -325,7 +314,7 @@ def _painter(triangles, colors, background, *, shape):
     level = jnp.where(cycle, 0, level)
     order = jnp.lexsort((far_first, level))
 
-    grid = pixel_centers(shape, triangles.dtype)
+    grid = pixel_centers(shape, dtype=triangles.dtype)
 
     def paint(carry, index):
         frame, writes = carry
@@ -427,7 +416,7 @@ def _warnock(triangles, colors, background, *, shape):
     height, width = shape
     levels = max(0, math.ceil(math.log2(max(height, width))))
     size = 2**levels
-    grid = pixel_centers((size, size), triangles.dtype).at[..., 1].add(height - size)
+    grid = pixel_centers((size, size), dtype=triangles.dtype).at[..., 1].add(height - size)
     owner = jnp.full((size, size), -1)
     decided = jnp.zeros((size, size), bool)
     codes = []
@@ -532,7 +521,7 @@ def raycast(
 @functools.partial(jax.jit, static_argnames=("shape",))
 def _raycast(triangles, colors, background, *, shape):
     triangles, colors, valid = _scene(triangles, colors)
-    owner, _, hits = _nearest(pixel_centers(shape, triangles.dtype), triangles, valid)
+    owner, _, hits = _nearest(pixel_centers(shape, dtype=triangles.dtype), triangles, valid)
     image = _compose(owner, colors, background)
     database = triangles.size * triangles.dtype.itemsize + colors.size * colors.dtype.itemsize
     counters = {
@@ -574,7 +563,7 @@ def _scanline(triangles, colors, background, *, shape):
 
     def row(carry, r):
         tests, spans = carry
-        y = (height - 1 - r).astype(triangles.dtype)
+        y = row_to_y(r, height).astype(triangles.dtype)
         dy = end[..., 1] - start[..., 1]
         crosses = ((start[..., 1] - y) * (end[..., 1] - y) <= 0) & (dy != 0)
         t = jnp.where(crosses, (y - start[..., 1]) / jnp.where(dy != 0, dy, 1.0), 0.0)

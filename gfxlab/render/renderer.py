@@ -36,6 +36,7 @@ from .._checks import (
     check_finite,
     check_shape,
     is_traced,
+    safe_normalize,
     trusted_values,
 )
 from .._pixels import pixel_centers
@@ -272,7 +273,7 @@ def antialias(
 @jax.jit
 def _antialias(image, face_index, depth, triangles_2d, faces):
     height, width = face_index.shape
-    points = pixel_centers((height, width), triangles_2d.dtype)
+    points = pixel_centers((height, width), dtype=triangles_2d.dtype)
     out = image
     for axis in (0, 1):  # vertical pairs, then horizontal pairs
         lo = [slice(None), slice(None)]
@@ -363,8 +364,7 @@ def _render_view(mesh, vertices, camera, extras, config: RenderConfig):
             jnp.concatenate([color, alpha[..., None]], -1), face, depth, tri, mesh.faces
         )
         color, alpha = both[..., :-1], both[..., -1]
-    length = jnp.sqrt(jnp.sum(normal * normal, -1, keepdims=True))
-    normal = jnp.where(length > 0, normal / jnp.where(length > 0, length, 1.0), 0.0)
+    normal = safe_normalize(normal)
     user = values[..., rest:] if attributes is not None else None
     return Rendering(color, alpha, depth, normal, position, face, bary, user), max_count
 

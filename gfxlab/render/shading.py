@@ -26,8 +26,10 @@ from .._checks import (
     check_shape,
     finite_float,
     safe_norm,
+    safe_normalize,
     value_error_if,
 )
+from .._pixels import row_to_y
 from ..brdf import Lambert
 
 __all__ = ["PointLight", "DirectionalLight", "shade", "sample_texture"]
@@ -92,8 +94,7 @@ class DirectionalLight(eqx.Module):
 
 def _unit_or(v, fallback):
     """`v / |v|`, or `fallback` where `v` is zero (finite gradients)."""
-    length = safe_norm(v, keepdims=True)
-    return jnp.where(length > 0, v / jnp.where(length > 0, length, 1.0), fallback)
+    return jnp.where(safe_norm(v, keepdims=True) > 0, safe_normalize(v), fallback)
 
 
 def _check_lights(lights):
@@ -215,7 +216,7 @@ def _sample_texture(texture, uv):
     fx, fy = (x - x0)[..., None], (y - y0)[..., None]
 
     def at(xi, yi):
-        return texture[height - 1 - yi, xi]
+        return texture[row_to_y(yi, height), xi]
 
     bottom = at(x0, y0) * (1 - fx) + at(x1, y0) * fx
     top = at(x0, y1) * (1 - fx) + at(x1, y1) * fx

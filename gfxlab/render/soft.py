@@ -23,7 +23,14 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float, Int
 
-from .._checks import as_float, check_finite, check_shape, static_shape, value_error_if
+from .._checks import (
+    as_float,
+    check_finite,
+    check_shape,
+    safe_normalize,
+    static_shape,
+    value_error_if,
+)
 from ..mesh import Mesh, check_faces, face_normals
 from ..viewing import Camera
 from ._project import check_mesh_camera, project_faces
@@ -229,7 +236,7 @@ def _flat_colors(mesh: Mesh, light, ambient):
     if light is not None:
         light = as_float(light, "light").astype(vertices.dtype)
         check_shape(light, "light", (3,))
-        direction = light / jnp.sqrt(jnp.sum(light * light))
+        direction = safe_normalize(light)
         lambert = jnp.abs(face_normals(vertices, faces) @ direction)  # two-sided
         corner_colors = corner_colors * (ambient + (1 - ambient) * lambert)[:, None, None]
     return corner_colors
