@@ -54,10 +54,10 @@ bench: $(VENV)/.installed-dev
 
 lint: $(VENV)/.installed-dev
 	$(BIN)/ruff check gfxlab tests labs
-	$(BIN)/ruff format --check gfxlab tests
+	$(BIN)/ruff format --check gfxlab tests labs
 
 format: $(VENV)/.installed-dev
-	$(BIN)/ruff format gfxlab tests
+	$(BIN)/ruff format gfxlab tests labs
 	$(BIN)/ruff check --fix gfxlab tests labs
 
 # The site: API reference from the docstrings, the architecture, every lab executed.
