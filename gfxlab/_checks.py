@@ -30,6 +30,7 @@ of float64) before anything is allocated.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import logging
 import math
@@ -229,14 +230,15 @@ def value_error_if(x, bad, message: str):
         if bool(np.any(np.asarray(bad))):
             raise ValueError(message)
         return x
-    if _TRUSTED.value:
+    if _TRUSTED is not None and _TRUSTED.value:
         return x
     return eqx.error_if(x, bad, message)
 
 
 # A JAX user context, so that jitted functions traced inside `trusted_values` are cached
-# apart from their checked traces (a later call from a user's `jit` still checks).
-_TRUSTED = jax.make_user_context(False)
+# apart from their checked traces (a later call from a user's `jit` still checks). A JAX
+# without user contexts keeps every check.
+_TRUSTED = jax.make_user_context(False) if hasattr(jax, "make_user_context") else None
 
 
 def trusted_values():
@@ -247,7 +249,7 @@ def trusted_values():
     their checks would only add a host callback to the program (the renderer's program had
     53, which made it compile a third slower). Checks of concrete values still raise.
     """
-    return _TRUSTED(True)
+    return _TRUSTED(True) if _TRUSTED is not None else contextlib.nullcontext()
 
 
 def host_value(x) -> np.ndarray | None:

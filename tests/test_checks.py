@@ -212,3 +212,18 @@ def test_is_traced():
     seen = []
     jax.jit(lambda x: seen.append(C.is_traced({"a": x})) or x)(1.0)
     assert seen == [True]
+
+
+def test_trusted_values_skip_traced_checks_and_keep_them_cached_apart():
+    @jax.jit
+    def core(x):
+        return C.check_finite(x, "x") * 2
+
+    nan = jnp.array(jnp.nan)
+    with C.trusted_values():
+        assert bool(jnp.isnan(core(nan)))  # the traced check is skipped inside
+        with pytest.raises(ValueError, match="`x` must be finite"):
+            C.check_finite(np.nan, "x")  # a concrete value is still checked
+    # The trace made inside is not reused outside: the check is back.
+    with pytest.raises(Exception, match="`x` must be finite"):
+        core(nan).block_until_ready()
