@@ -502,6 +502,41 @@ def test_call_timeouts_count_cpu_time_not_wall_time():
         assert 0.9 < time.monotonic() - started < 3
 
 
+SPREAD = """
+import os
+import time
+
+_ready, _done = os.pipe()
+for _ in range(4):
+    if os.fork() == 0:
+        hoard = b"x" * (200 * 2**20)  # resident; each child alone is under RLIMIT_AS
+        os.write(_done, b"1")
+        time.sleep(60)
+        os._exit(0)
+for _ in range(4):
+    os.read(_ready, 1)
+time.sleep(60)
+"""
+
+
+@grading
+def test_memory_limit_counts_all_the_submissions_processes():
+    """Children each under the per-process limit, together over it, are stopped with a
+    message that says so (the attack suite meets this too, but under a 3 s CPU limit a
+    loaded host may stop it by time first)."""
+    from gfxlab.grading.sandbox import Crash
+
+    with Sandbox(Limits(memory_mb=512), preload=()) as box:
+        box.start()
+        with pytest.raises(Crash) as stopped:
+            box.request("exec", 30, cell=1, source=SPREAD)
+        if box.cgroup is None:  # the tree monitor; with cgroup v2 the kernel stops it
+            assert "more than 512 MB of memory (all its processes together)" in str(
+                stopped.value
+            )
+        assert not box.alive
+
+
 # --- the shipped assignments -------------------------------------------------------------
 
 

@@ -286,9 +286,14 @@ def test_every_attack_scores_only_its_honest_part(graded):
     feedback = {n: _q1_feedback(results[n]) for n in graded["names"]}
     assert "timed out after 2 s" in feedback["cpu_loop"]
     assert "cannot be returned" in feedback["eq_always_true"]
-    assert "more than 1024 MB of memory (all its processes together)" in json.dumps(
-        results["memory_spread"]
-    )
+    # Stopped by the memory monitor, or on a host short of memory (page reclaim is billed
+    # to the faulting process) by the 3 s CPU limit first; its message is proven alone in
+    # test_grading.test_memory_limit_counts_all_the_submissions_processes.
+    spread = json.dumps(results["memory_spread"])
+    assert (
+        "more than 1024 MB of memory (all its processes together)" in spread
+        or "code cell 2 timed out after 3 s of CPU time" in spread
+    ), spread
     assert "signal 37" in feedback["realtime_signal"] or "SIGRTMIN" in feedback["realtime_signal"]
     # Hidden tests show pass/fail and a kind of failure, never the test's or student's text.
     leak = feedback["leak_arguments"]
