@@ -531,9 +531,7 @@ def test_memory_limit_counts_all_the_submissions_processes():
         with pytest.raises(Crash) as stopped:
             box.request("exec", 30, cell=1, source=SPREAD)
         if box.cgroup is None:  # the tree monitor; with cgroup v2 the kernel stops it
-            assert "more than 512 MB of memory (all its processes together)" in str(
-                stopped.value
-            )
+            assert "more than 512 MB of memory (all its processes together)" in str(stopped.value)
         assert not box.alive
 
 
