@@ -12,13 +12,34 @@ FAST_COMPILE_XLA_FLAGS = (
     "--xla_cpu_use_fusion_emitters=false --xla_backend_optimization_level=0 "
     "--xla_llvm_disable_expensive_passes=true"
 )
+# Older XLAs lack the emitter flag (and abort on an unknown flag): fall back to these.
+PORTABLE_FAST_COMPILE_XLA_FLAGS = (
+    "--xla_backend_optimization_level=0 --xla_llvm_disable_expensive_passes=true"
+)
 USER_XLA_FLAGS = os.environ.get("GFXLAB_USER_XLA_FLAGS", os.environ.get("XLA_FLAGS", ""))
 os.environ["GFXLAB_USER_XLA_FLAGS"] = USER_XLA_FLAGS
-TEST_XLA_FLAGS = os.environ.get("GFXLAB_TEST_XLA_FLAGS", FAST_COMPILE_XLA_FLAGS)
-os.environ["XLA_FLAGS"] = f"{USER_XLA_FLAGS} {TEST_XLA_FLAGS}".strip()
 
 import subprocess  # noqa: E402
 import sys  # noqa: E402
+
+
+def _test_xla_flags() -> str:
+    """The suite's XLA flags: `GFXLAB_TEST_XLA_FLAGS` if set, else the fast-compile ones
+    if this XLA accepts them (probed once in a child; xdist workers inherit the answer)."""
+    if "GFXLAB_TEST_XLA_FLAGS" not in os.environ:
+        probe = subprocess.run(
+            [sys.executable, "-c", "import jax.numpy as j; j.zeros(1).block_until_ready()"],
+            env=dict(os.environ, XLA_FLAGS=f"{USER_XLA_FLAGS} {FAST_COMPILE_XLA_FLAGS}"),
+            capture_output=True,
+            timeout=120,
+        )
+        accepted = probe.returncode == 0
+        flags = FAST_COMPILE_XLA_FLAGS if accepted else PORTABLE_FAST_COMPILE_XLA_FLAGS
+        os.environ["GFXLAB_TEST_XLA_FLAGS"] = flags
+    return os.environ["GFXLAB_TEST_XLA_FLAGS"]
+
+
+os.environ["XLA_FLAGS"] = f"{USER_XLA_FLAGS} {_test_xla_flags()}".strip()
 
 import jax  # noqa: E402
 import pytest  # noqa: E402
