@@ -23,12 +23,20 @@ from .._checks import (
     as_float,
     check_finite,
     check_shape,
-    common_float,
     static_shape,
     value_error_if,
 )
 from .._pixels import pixel_centers, row_to_y
-from ..mesh import check_colors
+from ._coverage import (
+    _check_scene,
+    _compose,
+    _covers,
+    _covers_own,
+    _edge_functions,
+    _int,
+    _nearest,
+    _scene,
+)
 from ._project import screen_scene
 from ._tiles import cross2
 
@@ -101,76 +109,6 @@ WARNOCK_CODES = {
     5: "subdivided",
     6: "pixel: nearest surface",
 }
-
-
-def _check_scene(triangles, colors, shape, background):
-    """The checks of every method, in Python: shapes, dtypes and finite values."""
-    height, width = static_shape(shape)
-    triangles, colors = common_float(triangles, colors, names=("triangles", "colors"))
-    check_shape(triangles, "triangles", (None, 3, 3))
-    colors = check_colors(colors, triangles.shape[0], per="triangle")  # (F, 1..4), finite
-    background = as_float(background, "background").astype(colors.dtype)
-    if background.ndim == 0:
-        background = jnp.broadcast_to(background, colors.shape[1:])
-    check_shape(background, "background", (colors.shape[1],))
-    triangles = check_finite(triangles, "triangles")
-    background = check_finite(background, "background")
-    return (height, width), triangles, colors, background
-
-
-def _scene(triangles, colors):
-    """Inside a method: the triangles to draw (an empty scene gets one skipped placeholder,
-    which keeps shapes valid) and which have an area (`valid`)."""
-    if triangles.shape[0] == 0:
-        triangles = jnp.zeros((1, 3, 3), triangles.dtype)
-        colors = jnp.zeros((1, colors.shape[1]), colors.dtype)
-    xy = triangles[..., :2]
-    valid = cross2(xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0]) != 0
-    return triangles, colors, valid
-
-
-def _edge_functions(points, triangles):
-    """`(..., F, 3)` oriented edge functions (>= 0 inside) and the plane depth `(..., F)`."""
-    xy = triangles[..., :2]
-    area2 = cross2(xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0])
-    start = xy
-    edge = jnp.roll(xy, -1, axis=-2) - start
-    rel = points[..., None, None, :] - start
-    fn = cross2(edge, rel)  # (..., F, 3)
-    safe = jnp.where(area2 != 0, area2, 1.0)
-    bary = jnp.roll(fn, -1, axis=-1) / safe[:, None]  # corner k: edge k + 1
-    depth = jnp.sum(bary * triangles[..., 2], -1)
-    return fn * jnp.sign(area2)[:, None], depth
-
-
-def _covers(points, triangles, valid):
-    fn, depth = _edge_functions(points, triangles)
-    return valid & jnp.all(fn >= 0, axis=-1), depth
-
-
-def _covers_own(points, triangles, valid):
-    """Coverage of each point `(..., 2)` by its own triangle `(..., 3, 3)`."""
-    xy = triangles[..., :2]
-    area2 = cross2(xy[..., 1, :] - xy[..., 0, :], xy[..., 2, :] - xy[..., 0, :])
-    fn = cross2(jnp.roll(xy, -1, axis=-2) - xy, points[..., None, :] - xy)
-    return valid & jnp.all(fn * jnp.sign(area2)[..., None] >= 0, axis=-1)
-
-
-def _nearest(points, triangles, valid):
-    """Index of the nearest covering triangle at `points (..., 2)` (-1: none) and its depth."""
-    cover, depth = _covers(points, triangles, valid)
-    depth = jnp.where(cover, depth, jnp.inf)
-    index = jnp.argmin(depth, axis=-1)  # first minimum: ties go to the lower index
-    hit = jnp.any(cover, axis=-1)
-    return jnp.where(hit, index, -1), jnp.min(depth, axis=-1), jnp.sum(cover, axis=-1)
-
-
-def _compose(owner, colors, background):
-    return jnp.where((owner >= 0)[..., None], colors[jnp.maximum(owner, 0)], background)
-
-
-def _int(x):
-    return jnp.asarray(x, dtype=jnp.result_type(int))
 
 
 def zbuffer(
@@ -402,57 +340,30 @@ def warnock(
 
 @functools.partial(jax.jit, static_argnames=("shape",))
 def _warnock(triangles, colors, background, *, shape):
-    # One `lax.scan` step per quadtree level, every level on the full pixel grid: each
-    # pixel stands for the cell that holds it (cells of a level are uniform blocks), and
-    # the cell's first pixel counts it. More arithmetic than per-level arrays of cells,
-    # but one compiled step instead of one program section per level (a 64 x 64 image
-    # compiled in 12-20 s unrolled, 2-5 s scanned).
+    # The levels above pixel size are one `lax.scan` step each, on a grid of 2 x 2 pixel
+    # blocks (such a level's cells are unions of blocks): each block stands for the
+    # cell that holds it, and the cell's first block counts it. One compiled step
+    # instead of one program section per level (a 64 x 64 image compiled in 12-20 s
+    # unrolled, 2-5 s scanned). At pixel size a cell is its pixel centre, where the
+    # four tests reduce to the pixel's covering triangles and their depths.
     triangles, colors, valid = _scene(triangles, colors)
     height, width = shape
     levels = max(0, math.ceil(math.log2(max(height, width))))
     size = 2**levels
-    dtype = triangles.dtype
-    grid = pixel_centers((size, size), dtype=dtype).at[..., 1].add(height - size)
-    index = jnp.arange(size)
-    # At pixel size a cell is its pixel centre: the nearest covering surface decides.
-    nearest, _, covering = _nearest(grid, triangles, valid)
-
-    def level(carry, depth):
-        owner, decided, polygon_tests, depth_tests, max_active, cells = carry
-        s = jnp.right_shift(size, depth)  # the cell size in pixels
-        first = index - index % s  # the first and last pixel of each pixel's cell
-        last = first + s - 1
-        x0, x1 = first.astype(dtype)[None, :], last.astype(dtype)[None, :]
-        y0, y1 = row_to_y(last, height)[:, None], row_to_y(first, height)[:, None]
-        rects = jnp.stack(jnp.broadcast_arrays(x0, y0, x1, y1), -1).astype(dtype)
-        head = (index % s == 0)[:, None] & (index % s == 0)[None, :]  # one pixel per cell
-        active = ~decided
-        code, cell_owner, first_rel, n_rel, n_sur, undecided = _warnock_decide(
-            rects, triangles, valid, active, depth == levels
-        )
-        # test 2: scan-convert the single polygon inside its cell
-        covered_first = _covers_own(grid, triangles[first_rel], valid[first_rel])
-        px_owner = jnp.where(code == 2, jnp.where(covered_first, first_rel, -1), cell_owner)
-        px_owner = jnp.where(code == 6, nearest, px_owner)
-        depth_tests = depth_tests + jnp.sum(jnp.where(head & (code == 6), covering, 0))
-        newly = (code >= 1) & (code != 5)
-        n_active = jnp.sum(head & active)
-        reached4 = head & active & undecided & (n_sur > 0)
-        carry = (
-            jnp.where(newly, px_owner, owner),
-            decided | newly,
-            polygon_tests + n_active * len(valid),
-            depth_tests + 4 * jnp.sum(jnp.where(reached4, n_rel, 0)),
-            jnp.maximum(max_active, n_active),
-            cells + jnp.sum(head & (code > 0)),
-        )
-        return carry, code.astype(jnp.int8)
-
+    grid = pixel_centers((size, size), dtype=triangles.dtype).at[..., 1].add(height - size)
     zero = _int(0)
-    start = (jnp.full((size, size), -1), jnp.zeros((size, size), bool), zero, zero, zero, zero)
-    (owner, _, polygon_tests, depth_tests, max_active, cells), codes = jax.lax.scan(
-        level, start, jnp.arange(levels + 1)
-    )
+    counts = (zero, zero, zero, zero)  # polygon tests, depth tests, max active, cells
+    owner = jnp.full((size, size), -1)
+    if levels > 0:
+        decided, counts, owner, codes = _warnock_blocks(
+            triangles, valid, grid, owner, counts, height=height, levels=levels
+        )
+        active = ~_blow_up(decided, 2)
+        quadtree = [codes[d, :: size >> d + 1, :: size >> d + 1] for d in range(levels)]
+    else:
+        active, quadtree = jnp.ones((1, 1), bool), []
+    code, owner, counts = _warnock_pixels(triangles, valid, grid, active, owner, counts)
+    polygon_tests, depth_tests, max_active, cells = counts
     image = _compose(owner[:height, :width], colors, background)
     memory = image.size * image.dtype.itemsize + max_active * 4 * 4
     counters = {
@@ -461,8 +372,80 @@ def _warnock(triangles, colors, background, *, shape):
         "polygon_tests": polygon_tests,
         "cells": cells,
     }
-    quadtree = tuple(codes[d, :: size >> d, :: size >> d] for d in range(levels + 1))
-    return VisibilityResult(image, None, counters, quadtree)
+    return VisibilityResult(image, None, counters, (*quadtree, code.astype(jnp.int8)))
+
+
+def _blow_up(blocks, k):
+    return jnp.repeat(jnp.repeat(blocks, k, 0), k, 1)
+
+
+def _warnock_blocks(triangles, valid, grid, owner, counts, *, height, levels):
+    """Warnock's levels above pixel size, on the grid of 2 x 2 pixel blocks."""
+    dtype = triangles.dtype
+    first_pixel = 2 * jnp.arange(2 ** (levels - 1))  # of each block, per axis
+
+    def level(carry, depth):
+        decided, owner, (polygon_tests, depth_tests, max_active, cells) = carry
+        s = jnp.right_shift(2**levels, depth)  # the cell size in pixels (>= 2)
+        first = first_pixel - first_pixel % s  # each block's cell: first and last pixel
+        last = first + s - 1
+        x0, x1 = first.astype(dtype)[None, :], last.astype(dtype)[None, :]
+        y0, y1 = row_to_y(last, height)[:, None], row_to_y(first, height)[:, None]
+        rects = jnp.stack(jnp.broadcast_arrays(x0, y0, x1, y1), -1).astype(dtype)
+        head = (first_pixel % s == 0)[:, None] & (first_pixel % s == 0)[None, :]
+        active = ~decided
+        code, cell_owner, first_rel, n_rel, n_sur, undecided = _warnock_decide(
+            rects, triangles, valid, active, False
+        )
+        # test 2: scan-convert the single polygon inside its cell, pixel by pixel
+        first_px = _blow_up(first_rel, 2)
+        covered_first = _covers_own(grid, triangles[first_px], valid[first_px])
+        px_code = _blow_up(code, 2)
+        px_owner = jnp.where(
+            px_code == 2, jnp.where(covered_first, first_px, -1), _blow_up(cell_owner, 2)
+        )
+        newly = (code >= 1) & (code != 5)
+        n_active = jnp.sum(head & active)
+        reached4 = head & active & undecided & (n_sur > 0)
+        counts = (
+            polygon_tests + n_active * len(valid),
+            depth_tests + 4 * jnp.sum(jnp.where(reached4, n_rel, 0)),
+            jnp.maximum(max_active, n_active),
+            cells + jnp.sum(head & (code > 0)),
+        )
+        owner = jnp.where((px_code >= 1) & (px_code != 5), px_owner, owner)
+        return (decided | newly, owner, counts), code.astype(jnp.int8)
+
+    decided = jnp.zeros((2 ** (levels - 1),) * 2, bool)
+    (decided, owner, counts), codes = jax.lax.scan(
+        level, (decided, owner, counts), jnp.arange(levels)
+    )
+    return decided, counts, owner, codes
+
+
+def _warnock_pixels(triangles, valid, grid, active, owner, counts):
+    """Warnock's last level: every undecided pixel. Its four corners are its centre, so
+    the relevant and the surrounding triangles are those that cover it: test 1 (none),
+    3 (one), 4 (one strictly nearest), else the nearest surface (code 6)."""
+    polygon_tests, depth_tests, max_active, cells = counts
+    cover, depth = _covers(grid, triangles, valid)
+    depth = jnp.where(cover, depth, jnp.inf)
+    nearest_depth = jnp.min(depth, axis=-1, keepdims=True)
+    nearest = jnp.where(jnp.any(cover, -1), jnp.argmin(depth, axis=-1), -1)
+    covering = jnp.sum(cover, axis=-1)
+    unique = jnp.sum(cover & (depth == nearest_depth), axis=-1) == 1
+    code = jnp.select([covering == 0, covering == 1, unique], [1, 3, 4], 6)
+    code = jnp.where(active, code, 0)
+    n_active = jnp.sum(active)
+    counts = (
+        polygon_tests + n_active * len(valid),
+        depth_tests
+        + jnp.sum(jnp.where(code == 6, covering, 0))  # the nearest-surface comparisons
+        + 4 * jnp.sum(jnp.where(active & (covering >= 2), covering, 0)),  # test 4
+        jnp.maximum(max_active, n_active),
+        cells + n_active,
+    )
+    return code, jnp.where(active, nearest, owner), counts
 
 
 def quadtree_cells(quadtree, shape: tuple[int, int]) -> np.ndarray:
