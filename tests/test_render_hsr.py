@@ -159,7 +159,12 @@ def test_bad_inputs():
     with pytest.raises(TypeError, match="quadtree"):
         R.quadtree_cells("x", (8, 8))
     with pytest.raises(ValueError, match="quadtree"):
-        R.quadtree_cells((np.zeros((1, 1), int), np.zeros((3, 3), int)), (8, 8))
+        R.quadtree_cells((np.zeros((1, 1), int), np.zeros((3, 3), int)), (2, 2))
+    # a quadtree drawn over an image of another size: its cells would be misplaced
+    small = R.warnock(triangles, colors, (16, 16)).quadtree
+    with pytest.raises(ValueError, match="`shape` \\(64, 64\\) is not the shape"):
+        R.quadtree_cells(small, (64, 64))
+    assert len(R.quadtree_cells(small, (9, 16))) > 0  # also padded to 16 x 16: fine
 
 
 def test_nan_scenes_are_errors_eagerly_and_under_jit():

@@ -462,6 +462,12 @@ def quadtree_cells(quadtree, shape: tuple[int, int]) -> np.ndarray:
             f"(`result.quadtree`), got {type(quadtree).__name__}"
         )
     size = 2 ** (len(quadtree) - 1)
+    levels = max(0, math.ceil(math.log2(max(height, width))))
+    if len(quadtree) != levels + 1:
+        raise ValueError(
+            f"`shape` {(height, width)} is not the shape `quadtree` was computed for: a "
+            f"warnock result for it has {levels + 1} levels, `quadtree` has {len(quadtree)}"
+        )
     rows = []
     for level, code in enumerate(quadtree):
         code = np.asarray(code)
