@@ -97,7 +97,7 @@ def rerun_with_default_emitters(request) -> bool:
     """
     if "--xla_cpu_use_fusion_emitters=false" not in os.environ["XLA_FLAGS"]:
         return False
-    env = dict(os.environ, GFXLAB_TEST_XLA_FLAGS="--xla_backend_optimization_level=0")
+    env = dict(os.environ, GFXLAB_TEST_XLA_FLAGS=PORTABLE_FAST_COMPILE_XLA_FLAGS)
     env.pop("PYTEST_XDIST_WORKER", None)
     run = subprocess.run(
         [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "no:xdist"]

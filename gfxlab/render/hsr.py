@@ -273,7 +273,7 @@ def _painter(triangles, colors, background, *, shape):
     return VisibilityResult(frame, None, counters)
 
 
-def _warnock_decide(rects, triangles, valid, active, bottom):
+def _warnock_decide(rects, triangles, valid, active):
     """Warnock's four tests on every cell of one level, `rects (..., 4)` as
     (xmin, ymin, xmax, ymax) of pixel centres: the decision code, the owning triangle
     (tests 3, 4), the first relevant triangle (test 2) and the counts."""
@@ -305,7 +305,7 @@ def _warnock_decide(rects, triangles, valid, active, bottom):
     test2 = (n_rel == 1) & (n_sur == 0)
     test3 = (n_rel == 1) & (n_sur == 1)
     test4 = ~test1 & ~test2 & ~test3 & jnp.any(front, -1)
-    code = jnp.select([test1, test2, test3, test4], [1, 2, 3, 4], jnp.where(bottom, 6, 5))
+    code = jnp.select([test1, test2, test3, test4], [1, 2, 3, 4], 5)
     code = jnp.where(active, code, 0)
     cell_owner = jnp.select([test3, test4], [first_rel, jnp.argmax(front, -1)], -1)
     undecided = ~test1 & ~test2 & ~test3
@@ -344,11 +344,11 @@ def _warnock(triangles, colors, background, *, shape):
     # blocks (such a level's cells are unions of blocks): each block stands for the
     # cell that holds it, and the cell's first block counts it. One compiled step
     # instead of one program section per level (a 64 x 64 image compiled in 12-20 s
-    # unrolled, 2-5 s scanned). At pixel size a cell is its pixel centre, where the
+    # unrolled, 2 s scanned). At pixel size a cell is its pixel centre, where the
     # four tests reduce to the pixel's covering triangles and their depths.
     triangles, colors, valid = _scene(triangles, colors)
     height, width = shape
-    levels = max(0, math.ceil(math.log2(max(height, width))))
+    levels = _quadtree_levels(height, width)
     size = 2**levels
     grid = pixel_centers((size, size), dtype=triangles.dtype).at[..., 1].add(height - size)
     zero = _int(0)
@@ -375,6 +375,11 @@ def _warnock(triangles, colors, background, *, shape):
     return VisibilityResult(image, None, counters, (*quadtree, code.astype(jnp.int8)))
 
 
+def _quadtree_levels(height: int, width: int) -> int:
+    """Levels below the root: the image is padded to a `2^levels` square."""
+    return max(0, math.ceil(math.log2(max(height, width))))
+
+
 def _blow_up(blocks, k):
     return jnp.repeat(jnp.repeat(blocks, k, 0), k, 1)
 
@@ -395,16 +400,16 @@ def _warnock_blocks(triangles, valid, grid, owner, counts, *, height, levels):
         head = (first_pixel % s == 0)[:, None] & (first_pixel % s == 0)[None, :]
         active = ~decided
         code, cell_owner, first_rel, n_rel, n_sur, undecided = _warnock_decide(
-            rects, triangles, valid, active, False
+            rects, triangles, valid, active
         )
         # test 2: scan-convert the single polygon inside its cell, pixel by pixel
         first_px = _blow_up(first_rel, 2)
         covered_first = _covers_own(grid, triangles[first_px], valid[first_px])
-        px_code = _blow_up(code, 2)
         px_owner = jnp.where(
-            px_code == 2, jnp.where(covered_first, first_px, -1), _blow_up(cell_owner, 2)
+            _blow_up(code == 2, 2), jnp.where(covered_first, first_px, -1), _blow_up(cell_owner, 2)
         )
         newly = (code >= 1) & (code != 5)
+        owner = jnp.where(_blow_up(newly, 2), px_owner, owner)
         n_active = jnp.sum(head & active)
         reached4 = head & active & undecided & (n_sur > 0)
         counts = (
@@ -413,7 +418,6 @@ def _warnock_blocks(triangles, valid, grid, owner, counts, *, height, levels):
             jnp.maximum(max_active, n_active),
             cells + jnp.sum(head & (code > 0)),
         )
-        owner = jnp.where((px_code >= 1) & (px_code != 5), px_owner, owner)
         return (decided | newly, owner, counts), code.astype(jnp.int8)
 
     decided = jnp.zeros((2 ** (levels - 1),) * 2, bool)
@@ -462,7 +466,7 @@ def quadtree_cells(quadtree, shape: tuple[int, int]) -> np.ndarray:
             f"(`result.quadtree`), got {type(quadtree).__name__}"
         )
     size = 2 ** (len(quadtree) - 1)
-    levels = max(0, math.ceil(math.log2(max(height, width))))
+    levels = _quadtree_levels(height, width)
     if len(quadtree) != levels + 1:
         raise ValueError(
             f"`shape` {(height, width)} is not the shape `quadtree` was computed for: a "
