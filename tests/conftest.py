@@ -138,7 +138,23 @@ _SLOW_FIRST = (
 )
 
 
+@pytest.hookimpl(trylast=True)
 def pytest_collection_modifyitems(config, items):
+    if getattr(config.option, "loadgroup", False):
+        # A worker under `--dist loadgroup`: pytest-xdist has tagged each grouped test's
+        # node id with `@group` by now. Untagged, the groups' tests (and their module
+        # fixtures, such as a whole grading batch) are split over the workers.
+        untagged = [
+            item.nodeid for item in items
+            if item.get_closest_marker("xdist_group") and "@" not in item.nodeid
+        ]  # fmt: skip
+        if untagged:
+            raise pytest.UsageError(
+                "pytest-xdist did not tag the xdist_group of "
+                f"{untagged[0]} (pytest {pytest.__version__}); install the pytest "
+                "versions pyproject.toml's dev extra allows"
+            )
+
     def rank(item):
         found = [i for i, part in enumerate(_SLOW_FIRST) if part in item.nodeid]
         return found[0] if found else len(_SLOW_FIRST)
