@@ -25,6 +25,13 @@ import time
 
 from .labs import HEADLESS_ENV  # set to "1" in the kernels the runner starts
 
+# nbformat validates notebooks with jsonschema, which imports `rfc3987_syntax` for its
+# "iri" format when that package is installed (JupyterLab pulls it in); it builds an
+# Earley parser at import, ~2 s of CPU in every process that reads a notebook. The
+# notebook schema uses no "iri" format, so the runner marks the package absent (jsonschema
+# then skips that one checker), unless something imported it already.
+sys.modules.setdefault("rfc3987_syntax", None)
+
 #: Environment variable overriding where the JAX compilation cache lives.
 CACHE_ENV = "GFXLAB_JAX_CACHE"
 

@@ -22,6 +22,10 @@ os.environ["GFXLAB_USER_XLA_FLAGS"] = USER_XLA_FLAGS
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 
+# Test files read notebooks with nbformat before gfxlab's runner is imported: skip
+# jsonschema's IRI checker here too (2 s per pytest process; see gfxlab/_runner.py).
+sys.modules.setdefault("rfc3987_syntax", None)
+
 
 def _test_xla_flags() -> str:
     """The suite's XLA flags: `GFXLAB_TEST_XLA_FLAGS` if set, else the fast-compile ones
