@@ -21,6 +21,12 @@ export GFXLAB_LABS_OUT := $(abspath $(LABS_OUT))
 
 .PHONY: lab test bench lint format docs clean
 
+# `mkdocs`, without jsonschema's IRI grammar: nbformat (under mkdocs-jupyter) imports
+# jsonschema, which builds an Earley parser for the "iri" format at import (~2.5 s);
+# notebooks use no such format (see gfxlab/_runner.py).
+export MKDOCS := import sys; sys.modules.setdefault("rfc3987_syntax", None); \
+	from mkdocs.__main__ import cli; cli()
+
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
@@ -65,7 +71,8 @@ format: $(VENV)/.installed-dev
 docs: $(VENV)/.installed-dev
 	@if ! ls $(LABS_OUT)/*.ipynb >/dev/null 2>&1; then \
 		MPLBACKEND=Agg $(BIN)/python -m gfxlab run all --out $(LABS_OUT); fi
-	NO_MKDOCS_2_WARNING=1 MPLBACKEND=Agg $(BIN)/python -m mkdocs build --strict --quiet --site-dir build/site
+	NO_MKDOCS_2_WARNING=1 MPLBACKEND=Agg $(BIN)/python -c "$$MKDOCS" build --strict --quiet \
+		--site-dir build/site
 
 clean:
 	rm -rf $(VENV) build site *.egg-info .pytest_cache

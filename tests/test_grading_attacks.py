@@ -15,9 +15,11 @@ import json
 import os
 import pathlib
 import re
+import shutil
 import socket
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 
@@ -140,8 +142,9 @@ def _special_submissions(folder, autograder):
     os.symlink("/etc/passwd", folder / "link.ipynb")
 
 
-def _run_cli(folder, autograder, out, *, uid=None, timeout=240, work=None):
-    """`python -m gfxlab grade` inside new pid/ipc/mount namespaces (as `uid` if given)."""
+def _run_cli(folder, autograder, out, *, uid=None, timeout=240, work=None, tmpdir=None):
+    """`python -m gfxlab grade` inside new pid/ipc/mount namespaces (as `uid` if given),
+    with its temporary folders in `tmpdir` if given."""
     code = (
         "import sys; sys.path.insert(0, sys.argv[1]); from gfxlab.grading.cli import "
         "main; sys.exit(main('grade', sys.argv[2:]))"
@@ -171,7 +174,11 @@ def _run_cli(folder, autograder, out, *, uid=None, timeout=240, work=None):
         capture_output=True,
         text=True,
         timeout=timeout,
-        env={"PATH": "/usr/bin:/bin", "LANG": "C.UTF-8"},
+        env={
+            "PATH": "/usr/bin:/bin",
+            "LANG": "C.UTF-8",
+            **({"TMPDIR": str(tmpdir)} if tmpdir else {}),
+        },
     )
 
 
@@ -264,12 +271,18 @@ def graded(tmp_path_factory, answer_server):
     names = ["reference", *ATTACK_NAMES]
     _submissions(folder, autograder, port, names)
     _special_submissions(folder, autograder)
+    # The grader's own temporary folder, to see what it leaves behind; traversable like
+    # /tmp (a sandbox refuses to start below a folder its uid cannot enter).
+    host_tmp = pathlib.Path(tempfile.mkdtemp(prefix="gfxlab-attacks-tmp-"))
+    host_tmp.chmod(0o711)
     started = time.monotonic()
-    run = _run_cli(folder, autograder, out)
+    run = _run_cli(folder, autograder, out, tmpdir=host_tmp)
     elapsed = time.monotonic() - started
-    return dict(
-        run=run, out=out, tmp=tmp, autograder=autograder, names=names, hits=hits, elapsed=elapsed
-    )
+    yield dict(
+        run=run, out=out, tmp=tmp, autograder=autograder, names=names, hits=hits,
+        elapsed=elapsed, host_tmp=host_tmp,
+    )  # fmt: skip
+    shutil.rmtree(host_tmp, ignore_errors=True)
 
 
 def test_every_attack_scores_only_its_honest_part(graded):
@@ -283,6 +296,8 @@ def test_every_attack_scores_only_its_honest_part(graded):
         _check_attack(name, results[name], hidden, seconds[name])
     assert graded["hits"] == [], "a submission reached the network"
     _host_is_clean()
+    # Every sandbox's working folder is gone, spares launched for nothing included.
+    assert not list(graded["host_tmp"].iterdir()), "grading left temporary folders behind"
     feedback = {n: _q1_feedback(results[n]) for n in graded["names"]}
     assert "timed out after 2 s" in feedback["cpu_loop"]
     assert "cannot be returned" in feedback["eq_always_true"]

@@ -20,6 +20,7 @@ import pathlib
 import re
 import shutil
 import sys
+import tempfile
 import time
 
 from . import authoring, mutants
@@ -332,13 +333,21 @@ def csv_cell(text) -> str:
     return "'" + text if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
 
 
-def _pool_worker(conn, grade=None):
-    """A grader process: grades the tasks it is sent, one at a time, until `None`."""
+def _pool_worker(conn, grade=None, scratch=None):
+    """A grader process: grades the tasks it is sent, one at a time, until `None`.
+
+    Its sandboxes' working folders go under `scratch`, which the pool removes when this
+    process ends, even if it was killed mid-submission.
+    """
+    if scratch is not None:
+        tempfile.tempdir = scratch
     grade = grade or _grade_one
     conn.send("ready")  # the hard limit counts from here, not from the process's start-up
     while True:
         task = conn.recv()
         if task is None:
+            for grader in _GRADERS.values():
+                grader.close()  # the spare sandbox, launched for a task that went elsewhere
             return
         conn.send(grade(task))
 
@@ -351,7 +360,12 @@ STARTUP_SECONDS = 300.0  # a grader process's own start (imports), before any su
 class _Worker:
     def __init__(self, context, grade):
         self.conn, child = context.Pipe()
-        self.proc = context.Process(target=_pool_worker, args=(child, grade), daemon=True)
+        # Traversable by a sandbox's own uid, like the sandboxes' folders inside it.
+        self.scratch = tempfile.mkdtemp(prefix="gfxlab-grader-")
+        os.chmod(self.scratch, 0o711)
+        self.proc = context.Process(
+            target=_pool_worker, args=(child, grade, self.scratch), daemon=True
+        )
         self.proc.start()
         child.close()
         self.task, self.started, self.ready = None, 0.0, False
@@ -361,6 +375,11 @@ class _Worker:
         self.proc.kill()
         self.proc.join()
         self.conn.close()
+        self.remove_scratch()
+
+    def remove_scratch(self):
+        """The working folders of this process's sandboxes (once it has ended)."""
+        shutil.rmtree(self.scratch, ignore_errors=True)
 
 
 def _run_pool(tasks, jobs, hard_limit, grade=None):
@@ -413,6 +432,7 @@ def _run_pool(tasks, jobs, hard_limit, grade=None):
             w.proc.join(5)
             if w.proc.is_alive():
                 w.kill()
+            w.remove_scratch()
     return results
 
 
