@@ -193,8 +193,16 @@ def static_int(value, name: str, *, minimum: int | None = None, maximum: int | N
 def static_shape(shape, name: str = "shape") -> tuple[int, int]:
     """An image shape `(H, W)` (extra trailing entries such as channels are ignored).
 
-    Each side is at most `MAX_ELEMENTS`, and so is `H * W`.
+    Each side is at most `MAX_ELEMENTS`, and so is `H * W`. A 1-D NumPy or concrete
+    JAX array (e.g. `np.array(image.shape)`) counts as a sequence of its entries.
     """
+    if is_traced(shape):
+        raise TypeError(
+            f"`{name}` sets an array size, so it must be a static shape such as (H, W), "
+            "not a traced array (pass it as a static argument of `jax.jit`)"
+        )
+    if isinstance(shape, np.ndarray | jax.Array) and shape.ndim == 1:
+        shape = tuple(np.asarray(shape).tolist())
     if not isinstance(shape, Sequence) or isinstance(shape, str) or len(shape) < 2:
         raise ValueError(f"`{name}` must be an image shape (H, W), got {shape!r:.60}")
     height = static_int(shape[0], f"{name}[0]", minimum=1, maximum=MAX_ELEMENTS)

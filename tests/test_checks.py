@@ -141,6 +141,15 @@ def test_static_shape_and_allocation_limit():
         C.static_shape((2**20, 2**20), "size")
     with pytest.raises(ValueError, match="`shape` must be an image shape"):
         C.static_shape("ab")
+    # an array of sizes, as `np.array(image.shape)` gives, is a shape like a list
+    assert C.static_shape(np.array([16, 12])) == (16, 12)
+    assert C.static_shape(jnp.array([16, 12, 3])) == (16, 12)
+    with pytest.raises(ValueError, match="`shape` must be an image shape"):
+        C.static_shape(np.array([[16, 12]]))
+    with pytest.raises(TypeError, match=r"`shape\[1\]`"):
+        C.static_shape(np.array([16.0, 12.5]))
+    with pytest.raises(TypeError, match="`shape`"):
+        jax.jit(lambda s: C.static_shape(s))(jnp.array([16, 12]))
     assert C.check_allocation(10, "n") == 10
     with pytest.raises(ValueError, match="`n` asks for 134217729 array elements"):
         C.check_allocation(C.MAX_ELEMENTS + 1, "n")
