@@ -46,7 +46,11 @@ def _edge_functions(points, triangles):
     fn = cross2(edge, rel)  # (..., F, 3)
     safe = jnp.where(area2 != 0, area2, 1.0)
     bary = jnp.roll(fn, -1, axis=-1) / safe[:, None]  # corner k: edge k + 1
-    depth = jnp.sum(bary * triangles[..., 2], -1)
+    # z0 + b1 (z1 - z0) + b2 (z2 - z0), not sum(b_k z_k): exact on a plane of constant
+    # depth (the barycentrics need not sum to exactly 1), so every visibility method
+    # sees the same tie between two faces at one depth.
+    z = triangles[..., 2]
+    depth = z[..., 0] + jnp.sum(bary[..., 1:] * (z[..., 1:] - z[..., :1]), -1)
     return fn * jnp.sign(area2)[:, None], depth
 
 
