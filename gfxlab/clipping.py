@@ -37,6 +37,14 @@ Three line clippers and one polygon clipper:
 - `liang_barsky`: the parametric clipper.
 - `sutherland_hodgman`: polygon clipping, one window edge at a time, with a fixed
   maximum output size and a validity mask.
+
+Examples:
+    >>> import jax.numpy as jnp
+    >>> from gfxlab.clipping import cohen_sutherland
+    >>> segment = jnp.array([[-1.0, 0.5], [3.0, 0.5]])
+    >>> clipped, accepted = cohen_sutherland(segment, jnp.array([0.0, 0.0, 2.0, 1.0]))
+    >>> clipped.tolist(), bool(accepted)
+    ([[0.0, 0.5], [2.0, 0.5]], True)
 """
 
 from __future__ import annotations

@@ -7,6 +7,14 @@ on column vectors (see `gfxlab.transforms`).
 
 Pixel coordinates follow the project convention (y up, the centre of pixel column x,
 row H-1-y at integer (x, y)); `ndc_to_pixels` maps NDC x, y onto them.
+
+Examples:
+    >>> import jax.numpy as jnp
+    >>> from gfxlab.viewing import Camera
+    >>> camera = Camera(jnp.array([0.0, 0.0, 5.0]), near=1.0, far=10.0)  # looks at the origin
+    >>> on_near_and_far = jnp.array([[0.0, 0.0, 4.0], [0.0, 0.0, -5.0]])
+    >>> camera.project(on_near_and_far).round(4).tolist()  # NDC z = -1 and +1
+    [[0.0, 0.0, -1.0], [0.0, 0.0, 1.0]]
 """
 
 from __future__ import annotations

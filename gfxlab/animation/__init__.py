@@ -11,6 +11,15 @@ The submodules, all re-exported here:
 - `video`: `save_animation` and `container_info`.
 
 Importing it loads neither matplotlib nor Pillow (GIF writing imports Pillow lazily).
+
+Examples:
+    >>> import jax.numpy as jnp
+    >>> from gfxlab.animation import interpolate
+    >>> keys, values = jnp.array([0.0, 1.0, 2.0]), jnp.array([0.0, 10.0, 0.0])
+    >>> interpolate(keys, values, jnp.array([0.5, 1.5])).tolist()
+    [5.0, 5.0]
+    >>> interpolate(keys, values, jnp.array([0.5, 1.5]), method="step").tolist()
+    [0.0, 10.0]
 """
 
 from __future__ import annotations

@@ -27,6 +27,16 @@ The submodules, all re-exported here:
 
 Called eagerly, each function is one compiled call (checks in Python first; NaN/inf
 in the data are checked inside that call, through `equinox.error_if`).
+
+Examples:
+    >>> import os, tempfile
+    >>> import numpy as np
+    >>> from gfxlab.image import read_image, write_image
+    >>> ramp = np.linspace(0, 1, 16 * 16 * 3).reshape(16, 16, 3)
+    >>> path = write_image(os.path.join(tempfile.mkdtemp(), "ramp.png"), ramp)
+    >>> image = read_image(path)  # floats in [0, 1], rounded to 8 bits in the file
+    >>> image.shape, bool(np.abs(image - ramp).max() <= 0.5 / 255)
+    ((16, 16, 3), True)
 """
 
 from __future__ import annotations

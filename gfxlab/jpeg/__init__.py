@@ -8,6 +8,16 @@
 - `compress`: a differentiable round trip whose forward pass is libjpeg's.
 
 All names are re-exported here: `from gfxlab.jpeg import dct2, encode, compress`.
+
+Examples:
+    >>> import numpy as np
+    >>> from gfxlab import jpeg
+    >>> ramp = np.linspace(0, 1, 16 * 16 * 3).reshape(16, 16, 3)
+    >>> data = jpeg.encode(ramp, quality=90)  # the bytes of a baseline JFIF file
+    >>> data[:2] == bytes([0xFF, 0xD8]), jpeg.decode(data).shape  # SOI marker; uint8 pixels
+    (True, (16, 16, 3))
+    >>> round(float(jpeg.psnr(jpeg.compress(ramp, quality=90.0), ramp)))  # dB, differentiable
+    51
 """
 
 from gfxlab.jpeg._tables import (

@@ -14,6 +14,17 @@ renderer calls it. The losses (`laplacian_loss`, `edge_length_loss`,
 
 The model shipped in `data/meshes/` (a chess pawn, a surface of revolution) is written
 by `write_shipped_models`, so the file is reproducible from this code.
+
+Examples:
+    >>> import jax.numpy as jnp
+    >>> from gfxlab.mesh import face_normals, icosphere
+    >>> sphere = icosphere(1)
+    >>> sphere.num_vertices, sphere.faces.shape
+    (42, (80, 3))
+    >>> centres = sphere.vertices[sphere.faces].mean(axis=1)
+    >>> normals = face_normals(sphere.vertices, sphere.faces)
+    >>> bool(jnp.all(jnp.sum(normals * centres, -1) > 0))  # facing outwards
+    True
 """
 
 from __future__ import annotations

@@ -17,6 +17,20 @@ textures, and the classic hidden-surface algorithms.
 
 All distances are in pixels with the project's pixel convention (`gfxlab._pixels`: y up,
 pixel centres on integers); projection is the camera's (`Camera.to_pixels`).
+
+Examples:
+    >>> import jax.numpy as jnp
+    >>> from gfxlab import render
+    >>> from gfxlab.mesh import icosphere
+    >>> from gfxlab.viewing import Camera
+    >>> ball = icosphere(1).with_colors(jnp.array([0.9, 0.6, 0.3]))
+    >>> image = render.render(ball, Camera(jnp.array([0.0, 0.0, 5.0])), (16, 16), mode="hard")
+    >>> image.color.shape, float(image.alpha[8, 8]), float(image.alpha[0, 0])  # centre, corner
+    ((16, 16, 3), 1.0, 0.0)
+    >>> triangle = jnp.array([[[1.0, 1.0, 0.5], [6.0, 1.0, 0.5], [1.0, 6.0, 0.5]]])  # x, y, depth
+    >>> drawn = render.zbuffer(triangle, jnp.array([[1.0, 0.0, 0.0]]), (8, 8))
+    >>> int(jnp.isfinite(drawn.depth).sum())  # pixel centres inside or on its edges
+    21
 """
 
 from .hsr import (
