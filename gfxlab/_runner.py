@@ -117,19 +117,23 @@ class LabError(RuntimeError):
     """A lab did not run to the end: a cell raised, ran past the timeout, or the kernel died.
 
     **Fields:** `lab` (the notebook), `cell_index` (the code cell's position in the
-    notebook, counting every cell from 0, or None), `cell_source`, `reason` (the error
-    or timeout, one line), `html_path` (the partial HTML copy, written before raising),
+    notebook, counting every cell from 0, or None), `code_cell` (its number among the
+    code cells, from 1, as the message says), `cell_source`, `reason` (the error or
+    timeout, one line), `html_path` (the partial HTML copy, written before raising),
     `timed_out`.
     """
 
-    def __init__(self, lab, cell_index, cell_source, reason, html_path, *, timed_out=False):
+    def __init__(
+        self, lab, cell_index, cell_source, reason, html_path, *, timed_out=False, code_cell=None
+    ):
         self.lab = pathlib.Path(lab)
         self.cell_index = cell_index
+        self.code_cell = code_cell
         self.cell_source = cell_source
         self.reason = reason
         self.html_path = html_path
         self.timed_out = timed_out
-        where = "before any cell ran" if cell_index is None else f"in cell {cell_index}"
+        where = "before any cell ran" if cell_index is None else f"in {self.where}"
         lines = (cell_source or "").strip().splitlines()
         shown = "\n".join("    " + line for line in lines[:8])
         if len(lines) > 8:
@@ -139,6 +143,14 @@ class LabError(RuntimeError):
             message += f"\n  the cell:\n{shown}"
         message += f"\n  partial HTML (outputs up to this cell): {html_path}"
         super().__init__(message)
+
+    @property
+    def where(self) -> str:
+        """The failing cell, as Jupyter users count: "code cell 2 (cell 3 of the notebook)"."""
+        if self.cell_index is None:
+            return "no cell"
+        place = f"cell {self.cell_index + 1} of the notebook"
+        return f"code cell {self.code_cell} ({place})" if self.code_cell else place
 
 
 def _html(nb) -> str:
@@ -229,7 +241,10 @@ def run_lab(
     nbformat.write(nb, out_dir / path.name)
     if failure is not None:
         source = cell.source if cell is not None else ""
-        raise LabError(path, index, source, failure[0], html_path, timed_out=failure[1])
+        code_cell = sum(c.cell_type == "code" for c in nb.cells[: index + 1]) if cell else None
+        raise LabError(
+            path, index, source, failure[0], html_path, timed_out=failure[1], code_cell=code_cell
+        )
     return html_path
 
 
@@ -255,7 +270,7 @@ def write_index(out_dir: pathlib.Path, runs: list[LabRun]) -> pathlib.Path:
             status = '<span class="ok">ran</span>'
         else:
             kind = "timed out" if run.error.timed_out else "failed"
-            where = "" if run.error.cell_index is None else f" in cell {run.error.cell_index}"
+            where = "" if run.error.cell_index is None else f" in {run.error.where}"
             status = f'<span class="bad">{kind}{where}</span>: {html.escape(run.error.reason)}'
         rows.append(
             f"<tr><td>{html.escape(run.lab.stem)}</td><td>{name}</td>"

@@ -302,6 +302,33 @@ def test_grade_help_shows_isolation_needs_no_autograder(capsys):
     assert "grade SUBMISSION --autograder DIR" in usage
 
 
+def test_grade_help_says_timeouts_are_cpu_seconds(capsys):
+    with pytest.raises(SystemExit):
+        main("grade", ["--help"])
+    assert "CPU seconds per function call" in " ".join(capsys.readouterr().out.split())
+
+
+def test_a_tmpdir_the_submission_cannot_enter_is_named_as_the_problem(tmp_path):
+    """Each sandbox's folder is made in TMPDIR, which the submission's own uid must enter
+    (as root the sandbox drops to a fresh uid); `--isolation` fails with the cause."""
+    import subprocess
+
+    private = tmp_path / "private"
+    (private / "tmp").mkdir(parents=True)
+    private.chmod(0o700)
+    env = dict(os.environ, TMPDIR=str(private / "tmp"))
+    run = subprocess.run(
+        [sys.executable, "-m", "gfxlab", "grade", "--isolation"],
+        env=env, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    if os.geteuid() == 0:
+        assert run.returncode == 1, run.stdout
+        assert f"the temporary folder {private / 'tmp'} is below" in run.stdout
+        assert "set TMPDIR to a folder other users can enter" in run.stdout
+    else:  # unprivileged, the sandbox keeps the grader's uid, which can enter it
+        assert "the temporary folder" not in run.stdout
+
+
 def test_check_array_messages():
     with pytest.raises(Feedback, match=r"should have shape \(any, 3\), got shape \(7, 2\)"):
         check_array(np.zeros((7, 2)), shape=(None, 3))

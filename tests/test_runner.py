@@ -64,6 +64,7 @@ def test_run_all_writes_pages_and_an_index(labs, tmp_path):
     assert (tmp_path / "jax-cache").is_dir()
 
     assert bad.error is not None and bad.error.cell_index == 2 and not bad.error.timed_out
+    assert bad.error.code_cell == 2  # after the title's Markdown cell
     assert "ValueError: the figure lies" in bad.error.reason
     assert "raise ValueError" in bad.error.cell_source
     assert (out / "02_bad.html").exists()  # the partial copy
@@ -72,7 +73,10 @@ def test_run_all_writes_pages_and_an_index(labs, tmp_path):
     assert index == out / "index.html"
     assert '<a href="01_good.html">Good lab</a>' in text
     assert '<a href="02_bad.html">Bad lab</a>' in text
-    assert "failed in cell 2" in text and "ValueError: the figure lies" in text
+    assert (
+        "failed in code cell 2 (cell 3 of the notebook)" in text
+        and "ValueError: the figure lies" in text
+    )
 
 
 def test_run_lab_names_the_failing_cell(labs, tmp_path):
@@ -116,7 +120,10 @@ def test_cli_timeout_is_a_clear_message_with_partial_html(labs, tmp_path):
     )
     assert proc.returncode == 1
     assert "Traceback" not in proc.stderr, proc.stderr
-    assert "04_slow.ipynb: in cell 2: the cell did not finish within 1 s" in proc.stderr
+    assert (
+        "04_slow.ipynb: in code cell 2 (cell 3 of the notebook): the cell did not finish within 1 s"
+        in proc.stderr
+    )
     assert "time.sleep(60)" in proc.stderr and "--timeout" in proc.stderr
     page = (out / "04_slow.html").read_text()
     assert "done before the slow cell" in page and "did not finish within 1 s" in page

@@ -12,7 +12,11 @@ from .sandbox import IsolationUnavailable, detect_protections
 
 
 def _limit_args(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--timeout", type=float, help="wall seconds per function call")
+    parser.add_argument(
+        "--timeout",
+        type=float,
+        help="CPU seconds per function call (the wall-clock limit is 3x that plus 5 s)",
+    )
     parser.add_argument("--memory-mb", type=int, help="address-space limit of the student")
     parser.add_argument(
         "--budget", type=float, help="wall seconds for one whole submission (restarts included)"
@@ -132,8 +136,9 @@ def _grade_parser() -> argparse.ArgumentParser:
 
 def _grade(argv) -> int:
     if "--isolation" in argv:  # which isolation layers this machine gives, then exit
-        print("\n".join(detect_protections().describe()))
-        return 0
+        protections = detect_protections()
+        print("\n".join(protections.describe()))
+        return 0 if protections.confined else 1  # a script can test the host by exit code
     args = _grade_parser().parse_args(argv)
     if not (args.autograder / "config.json").is_file():
         print(f"error: {args.autograder} is not an autograder directory", file=sys.stderr)

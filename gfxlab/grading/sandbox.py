@@ -82,6 +82,16 @@ def detect_protections() -> Protections:
             blocked.setdefault(str(blocker), []).append(str(path))
     expose = tuple((b, tuple(p)) for b, p in blocked.items())
     prot = Protections(bwrap, root, expose, _cgroup_parent())
+    # Each sandbox's working folder is made in the temporary folder, and the submission's
+    # own uid must enter it (a TMPDIR below a private folder would stop every start).
+    temp = pathlib.Path(tempfile.gettempdir())
+    closed = _closed_to_others(temp) if root else None
+    if closed is not None:
+        return dataclasses.replace(
+            prot,
+            problem=f"the temporary folder {temp} is below {closed}, which the submission's "
+            "own user cannot enter; set TMPDIR to a folder other users can enter, such as /tmp",
+        )
     error = _probe(prot)
     if error:
         return dataclasses.replace(

@@ -33,8 +33,9 @@ Examples:
     >>> import numpy as np
     >>> from gfxlab.image import read_image, write_image
     >>> ramp = np.linspace(0, 1, 16 * 16 * 3).reshape(16, 16, 3)
-    >>> path = write_image(os.path.join(tempfile.mkdtemp(), "ramp.png"), ramp)
-    >>> image = read_image(path)  # floats in [0, 1], rounded to 8 bits in the file
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     path = write_image(os.path.join(folder, "ramp.png"), ramp)
+    ...     image = read_image(path)  # floats in [0, 1], rounded to 8 bits in the file
     >>> image.shape, bool(np.abs(image - ramp).max() <= 0.5 / 255)
     ((16, 16, 3), True)
 """

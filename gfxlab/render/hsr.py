@@ -2,10 +2,12 @@
 
 Scenes are `(F, 3, 3)` triangles (pixel x, pixel y, depth; smaller depth is nearer,
 depth affine across each triangle such as NDC z): `zbuffer`, `painter` (depth sort),
-`warnock` (area subdivision), `scanline` and `raycast`. A pixel is covered by a triangle when its
-centre lies inside or on the triangle; all four methods pick the nearest covering
-triangle (ties: the lower index) unless the scene has cyclic overlaps, where `painter`
-fails. `screen_scene` turns a mesh and a camera into such a scene.
+`warnock` (area subdivision), `scanline` and `raycast`. A pixel is covered by a triangle
+when its centre lies inside or on the triangle. `zbuffer`, `warnock`, `scanline` and
+`raycast` show the nearest covering triangle (ties: the lower index). `painter` shows
+the same where depths differ, but paints faces of equal depth in index order, so at a
+tie the higher index shows; with cyclic overlaps it fails (the textbook limitation).
+`screen_scene` turns a mesh and a camera into such a scene.
 """
 
 from __future__ import annotations
@@ -222,7 +224,8 @@ def painter(
     anywhere in their common area is painted after it (a topological order). With
     cyclic overlaps no such order exists (`counters["cycle"]` is 1): the plain depth
     sort is painted and the picture is wrong where the cycle overlaps, which is the
-    textbook failure (fixing it needs polygon splitting).
+    textbook failure (fixing it needs polygon splitting). Faces at exactly the same
+    depth are painted in index order: the later one shows.
 
     Arguments and result as for `zbuffer`; there is no depth buffer (`depth` is None).
     """
@@ -539,7 +542,8 @@ def scanline(
     For each scan line the active triangles are those it crosses; each gives a span
     `[x_left, x_right]` from the crossings of its edges. Where only one span covers a
     pixel it is drawn without a depth test; where several overlap, the depths along
-    the line are compared. Only one row of depths is kept.
+    the line are compared. Only one row of depths is kept. A pixel centre exactly on an
+    edge is covered, as in the other methods (the edge functions settle the span ends).
 
     Arguments as for `zbuffer`; no full depth buffer (`depth` is None).
     """
@@ -566,9 +570,14 @@ def _scanline(triangles, colors, background, *, shape):
         left = jnp.min(jnp.where(crosses, x, jnp.inf), -1)
         right = jnp.max(jnp.where(crosses, x, -jnp.inf), -1)
         active = valid & jnp.any(crosses, -1)
-        in_span = active & (xs[:, None] >= left) & (xs[:, None] <= right)  # (W, F)
         points = jnp.stack([xs, jnp.full_like(xs, y)], -1)
-        _, depth = _edge_functions(points, z_plane)
+        edges, depth = _edge_functions(points, z_plane)
+        # A span's ends are rounded crossings: a pixel centre exactly on a sloped edge
+        # can fall just outside. Within a small slack of the span, the edge functions
+        # (exact for such a centre) decide, as they do for the other methods.
+        slack = 1e-6 * (1.0 + jnp.abs(right - left))
+        near = (xs[:, None] >= left - slack) & (xs[:, None] <= right + slack)
+        in_span = active & near & jnp.all(edges >= 0, axis=-1)  # (W, F)
         depth = jnp.where(in_span, depth, jnp.inf)
         nearest = jnp.where(jnp.any(in_span, -1), jnp.argmin(depth, -1), -1)
         overlapping = jnp.sum(in_span, -1)
