@@ -104,6 +104,36 @@ def test_painter_fails_on_cyclic_overlap_the_others_do_not():
     np.testing.assert_array_equal(two.image, R.zbuffer(triangles[:4], colors[:4], shape).image)
 
 
+def test_exact_ties_and_centres_on_edges_agree_across_methods():
+    """Pixel centres exactly on a sloped edge are covered by every method (scan-line
+    spans are rounded crossings), and two faces at one constant depth tie exactly
+    (the lower index wins; the painter paints in index order, so the later one shows)."""
+    shape = (32, 32)
+    red, green = np.eye(3)[:2]
+    x, y = np.meshgrid(np.arange(32.0), 31.0 - np.arange(32.0))  # centres, y up
+    for n in (5, 14, 16, 22, 28):  # integer corners put centres on the hypotenuse
+        tri = jnp.array([[[1.0, 1.0, 0.5], [n, 1.0, 0.5], [1.0, n, 0.5]]])
+        inside = (x >= 1) & (y >= 1) & (x + y <= n + 1)  # exact: closed triangle
+        for method in METHODS:
+            image = np.asarray(method(tri, jnp.array([red]), shape).image)
+            np.testing.assert_array_equal(np.any(image > 0, -1), inside, method.__name__)
+    first = [[2.0, 3.0, 1.0], [30.0, 5.0, 1.0], [10.0, 28.0, 1.0]]
+    second = [[25.0, 2.0, 1.0], [28.0, 30.0, 1.0], [1.0, 20.0, 1.0]]
+    for scene in ([first, second], [first, first]):  # overlapping; the same face twice
+        triangles, colors = jnp.array(scene), jnp.array([red, green])
+        drawn = np.asarray(R.zbuffer(triangles, colors, shape).image)
+        alone = [
+            np.asarray(R.zbuffer(triangles[i : i + 1], colors[:1], shape).image) for i in (0, 1)
+        ]
+        overlap = alone[0].any(-1) & alone[1].any(-1)
+        assert overlap.any() and np.all(drawn[overlap] == red)  # the lower index wins a tie
+        for method in (R.scanline, R.raycast, R.warnock):
+            np.testing.assert_array_equal(method(triangles, colors, shape).image, drawn)
+    same = np.asarray(R.painter(jnp.array([first, first]), jnp.array([red, green]), shape).image)
+    covered = np.any(same > 0, -1)
+    assert covered.any() and np.all(same[covered] == green)
+
+
 def test_warnock_quadtree():
     shape = (16, 16)
     big = jnp.array([[[-40.0, -40.0, 1.0], [80.0, -40.0, 1.0], [-40.0, 80.0, 1.0]]])
