@@ -88,12 +88,13 @@ def test_bezier_easing_matches_bezier_library():
 
 
 def test_easing_shapes():
-    u = jnp.linspace(0.05, 0.95, 19)
-    assert jnp.all(A.ease_in(u) < u)  # slow start
-    assert jnp.all(A.ease_out(u) > u)  # fast start
+    grid = np.linspace(0, 1, 101)  # one shape for every easing below (one compile)
+    u, inner = jnp.asarray(grid), slice(5, -5)  # strict inequalities on [0.05, 0.95]
+    assert np.all(np.asarray(A.ease_in(u))[inner] < grid[inner])  # slow start
+    assert np.all(np.asarray(A.ease_out(u))[inner] > grid[inner])  # fast start
     np.testing.assert_allclose(A.ease_in_out(0.5), 0.5, atol=1e-12)
-    np.testing.assert_allclose(A.cubic_bezier_easing(u, "linear"), u, atol=1e-12)
-    assert jnp.all(jnp.diff(A.ease_in_out(jnp.linspace(0, 1, 101))) >= 0)
+    np.testing.assert_allclose(A.cubic_bezier_easing(u, "linear"), grid, atol=1e-12)
+    assert np.all(np.diff(np.asarray(A.ease_in_out(u))) >= 0)
     # Gradient is finite where x'(0) = 0 (ease_out starts with a vertical tangent in s).
     assert jnp.isfinite(jax.grad(A.ease_out)(0.0))
 
@@ -202,12 +203,19 @@ def test_slerp_matches_scipy_and_same_axis_angles():
 def test_rotation_keys_slerp_and_squad():
     times = jnp.array([0.0, 1.0, 2.0, 3.5])
     quats = jnp.asarray(_random_quats(9, 4))
+    # squad at the keys and at 50 times between them in one call, of the length the
+    # Shoemake comparison below uses too (one compiled squad)
+    t = np.linspace(0, 3.5, 50)
+    samples = jnp.asarray(np.concatenate([np.asarray(times), t]))
+    squad_all = np.asarray(A.interpolate_rotations(times, quats, samples, method="squad"))
     for method in ("slerp", "squad", "step"):
-        at_keys = A.interpolate_rotations(times, quats, times, method=method)
+        if method == "squad":
+            at_keys = squad_all[:4]
+        else:
+            at_keys = A.interpolate_rotations(times, quats, times, method=method)
         np.testing.assert_allclose(np.abs(np.sum(at_keys * quats, -1)), 1.0, atol=1e-9)
-    t = jnp.linspace(0, 3.5, 50)
-    squad = A.interpolate_rotations(times, quats, t, method="squad")
-    np.testing.assert_allclose(jnp.linalg.norm(squad, axis=-1), 1.0, atol=1e-9)
+    squad = squad_all[4:]
+    np.testing.assert_allclose(np.linalg.norm(squad, axis=-1), 1.0, atol=1e-9)
 
     # squad is C1 at interior keys (slerp is not).
     # squad is C1 in time at interior keys (uneven spacing too); slerp is not.
@@ -215,9 +223,11 @@ def test_rotation_keys_slerp_and_squad():
         f = lambda s: A.interpolate_rotations(times, quats, s, method=method)
         return jax.jit(jax.vmap(lambda s: jax.jvp(f, (s,), (jnp.ones_like(s),))[1]))(s)
 
-    keys = times[1:-1]
+    keys = np.asarray(times[1:-1])
+    sides = jnp.asarray(np.concatenate([keys - 1e-9, keys + 1e-9]))  # one compiled call
     for method, continuous in (("squad", True), ("slerp", False)):
-        jump = np.abs(velocity(method, keys - 1e-9) - velocity(method, keys + 1e-9)).max()
+        left, right = np.split(np.asarray(velocity(method, sides)), 2)
+        jump = np.abs(left - right).max()
         assert (jump < 1e-6) if continuous else (jump > 1e-2)
     # With even spacing the inner quaternions are Shoemake's: the middle segment is his
     # squad with `squad_inner` controls (keys normalised and sign-aligned, as documented).
@@ -225,11 +235,11 @@ def test_rotation_keys_slerp_and_squad():
     q = np.asarray(quats) / np.linalg.norm(quats, axis=-1, keepdims=True)
     for k in range(1, 4):
         q[k] *= np.sign(np.dot(q[k], q[k - 1])) or 1.0
-    u = jnp.linspace(0.0, 1.0, 7)
+    u = np.linspace(0.0, 1.0, len(samples))
     inner = A.squad_inner(q[:2], q[1:3], q[2:])
-    controls = [jnp.broadcast_to(x, (7, 4)) for x in (q[1], inner[0], inner[1], q[2])]
-    ref = A.squad(*controls, u)
-    ours = A.interpolate_rotations(even, quats, 1.0 + u, method="squad")
+    controls = [jnp.broadcast_to(x, (len(u), 4)) for x in (q[1], inner[0], inner[1], q[2])]
+    ref = A.squad(*controls, jnp.asarray(u))
+    ours = A.interpolate_rotations(even, quats, jnp.asarray(1.0 + u), method="squad")
     np.testing.assert_allclose(ours, ref, atol=1e-12)
     with pytest.raises(ValueError, match="method"):
         A.interpolate_rotations(times, quats, t, method="lerp")

@@ -161,42 +161,48 @@ def test_blocks_roundtrip_with_edge_padding(maybe_jit):
 
 
 def test_quantize_roundings():
-    table = jnp.full((8, 8), 4.0)
-    x = jnp.linspace(-10, 10, 64).reshape(8, 8)
+    # (8, 8) float64 arrays made in NumPy: the eager stages compile once for all of them
+    table = jnp.asarray(np.full((8, 8), 4.0))
+    grid = np.linspace(-10, 10, 64).reshape(8, 8)
+    x = jnp.asarray(grid)
     near = jpeg.quantize(x, table)
-    np.testing.assert_array_equal(jpeg.quantize(jnp.full((8, 8), 2.0), table), 1.0)  # half up
-    np.testing.assert_array_equal(jpeg.quantize(jnp.full((8, 8), -2.0), table), -1.0)
+    np.testing.assert_array_equal(jpeg.quantize(jnp.asarray(np.full((8, 8), 2.0)), table), 1.0)
+    np.testing.assert_array_equal(jpeg.quantize(jnp.asarray(np.full((8, 8), -2.0)), table), -1.0)
     np.testing.assert_array_equal(jpeg.quantize(x, table, rounding="ste"), near)
     g = jax.grad(lambda x: jpeg.quantize(x, table, rounding="ste").sum())(x)
     np.testing.assert_allclose(g, 0.25)
-    check_grads(jax.jit(lambda x: jpeg.quantize(x, table, rounding="cubic")), (x + 0.3,), order=1)
-    np.testing.assert_allclose(jpeg.dequantize(near, table), near * 4)
+    cubic = jax.jit(lambda x: jpeg.quantize(x, table, rounding="cubic"))
+    check_grads(cubic, (jnp.asarray(grid + 0.3),), order=1)
+    np.testing.assert_allclose(jpeg.dequantize(near, table), np.asarray(near) * 4)
 
 
 def test_quant_tables_continuous():
     exact = np.stack([np.stack(jpeg.quant_tables(q)) for q in range(1, 101)])
     smooth = jax.jit(jax.vmap(lambda q: jnp.stack(jpeg.quant_tables_continuous(q))))(
-        jnp.arange(1.0, 101.0)
+        jnp.asarray(np.arange(1.0, 101.0))
     )
-    assert np.abs(exact - smooth).max() <= 0.5 + 1e-9
+    assert np.abs(exact - np.asarray(smooth)).max() <= 0.5 + 1e-9
     qs = jnp.array([1.0, 1.5, 10.0, 49.999, 50.0, 50.001, 99.9, 100.0])
-    grads = jax.vmap(jax.grad(lambda q: sum(t.sum() for t in jpeg.quant_tables_continuous(q))))(qs)
-    assert np.all(np.isfinite(grads))
+    grads = jax.jit(
+        jax.vmap(jax.grad(lambda q: sum(t.sum() for t in jpeg.quant_tables_continuous(q))))
+    )(qs)
+    assert np.all(np.isfinite(np.asarray(grads)))
     check_grads(jax.jit(lambda q: jpeg.quant_tables_continuous(q)[0]), (30.3,), order=1, eps=1e-3)
 
 
 def test_float_stages_gradients():
-    x = jnp.asarray(np.random.default_rng(4).random((8, 8, 3)))
-    check_grads(jax.jit(jpeg.rgb_to_ycbcr), (x[:3, :3],), order=1, modes="rev")
-    check_grads(jax.jit(jpeg.ycbcr_to_rgb), (x[:3, :3],), order=1, modes="rev")
+    x = np.random.default_rng(4).random((8, 8, 3))  # sliced in NumPy, then put on device
+    check_grads(jax.jit(jpeg.rgb_to_ycbcr), (jnp.asarray(x[:3, :3]),), order=1, modes="rev")
+    check_grads(jax.jit(jpeg.ycbcr_to_rgb), (jnp.asarray(x[:3, :3]),), order=1, modes="rev")
     check_grads(
         jax.jit(lambda p: jpeg.subsample(p, subsampling="4:2:0")),
-        (x[:5, :5, 0],),
+        (jnp.asarray(x[:5, :5, 0]),),
         order=1,
         modes="rev",
     )
-    check_grads(jax.jit(lambda p: jpeg.upsample(p, (6, 7))), (x[:3, :4, 0],), order=1, modes="rev")
-    check_grads(jax.jit(jpeg.dct2), (x[..., 0],), order=1, modes="rev")
+    upsample = jax.jit(lambda p: jpeg.upsample(p, (6, 7)))
+    check_grads(upsample, (jnp.asarray(x[:3, :4, 0]),), order=1, modes="rev")
+    check_grads(jax.jit(jpeg.dct2), (jnp.asarray(x[..., 0]),), order=1, modes="rev")
 
 
 def test_run_length_zrl_and_eob():
@@ -331,6 +337,10 @@ def _zigzag_blocks(draw):
     return blocks, np.array(chroma)
 
 
+# One compiled program per block count (the table ids are an argument, not a constant).
+_JAX_BLOCK_EVENTS = jax.jit(lambda b, d, t: _encoder.block_events(b, d, t, jnp))
+
+
 @given(_zigzag_blocks())
 def test_dense_block_events_equal_textbook_huffman_coding(case):
     blocks, chroma = case
@@ -349,9 +359,7 @@ def test_dense_block_events_equal_textbook_huffman_coding(case):
         difference[own] = np.diff(blocks[own, 0], prepend=0)
     tables = chroma.astype(np.int32)
     ours_np = _encoder.block_events(blocks, difference, tables, np)
-    ours_jax = jax.jit(lambda b, d: _encoder.block_events(b, d, tables, jnp))(
-        blocks.astype(np.int32), difference.astype(np.int32)
-    )
+    ours_jax = _JAX_BLOCK_EVENTS(blocks.astype(np.int32), difference.astype(np.int32), tables)
     np.testing.assert_array_equal(np.asarray(ours_jax), ours_np)
     assert _encoder.pack_scan(ours_np) == expected
     # The compiled encoder codes blocks in the DCT's transposed layout, then reorders.

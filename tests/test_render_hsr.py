@@ -190,8 +190,9 @@ def test_bad_inputs():
         R.quadtree_cells("x", (8, 8))
     with pytest.raises(ValueError, match="quadtree"):
         R.quadtree_cells((np.zeros((1, 1), int), np.zeros((3, 3), int)), (2, 2))
-    # a quadtree drawn over an image of another size: its cells would be misplaced
-    small = R.warnock(triangles, colors, (16, 16)).quadtree
+    # a quadtree drawn over an image of another size: its cells would be misplaced (two
+    # faces at 16 x 16: the program test_warnock_quadtree compiles)
+    small = R.warnock(triangles[:2], colors[:2], (16, 16)).quadtree
     with pytest.raises(ValueError, match="`shape` \\(64, 64\\) is not the shape"):
         R.quadtree_cells(small, (64, 64))
     assert len(R.quadtree_cells(small, (9, 16))) > 0  # also padded to 16 x 16: fine
