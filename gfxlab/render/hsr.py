@@ -575,7 +575,7 @@ def _scanline(triangles, colors, background, *, shape):
         # A span's ends are rounded crossings: a pixel centre exactly on a sloped edge
         # can fall just outside. Within a small slack of the span, the edge functions
         # (exact for such a centre) decide, as they do for the other methods.
-        slack = 1e-6 * (1.0 + jnp.abs(right - left))
+        slack = 1e-6 * (1.0 + width)  # pixels: far above rounding, far below a pixel
         near = (xs[:, None] >= left - slack) & (xs[:, None] <= right + slack)
         in_span = active & near & jnp.all(edges >= 0, axis=-1)  # (W, F)
         depth = jnp.where(in_span, depth, jnp.inf)
