@@ -43,8 +43,10 @@ $(VENV)/.installed-dev: pyproject.toml setup.py | $(BIN)/python
 # Jupyter refuses to run as root unless told to (containers, CI machines).
 ROOT_FLAG := $(if $(filter 0,$(shell id -u)),--allow-root,)
 
+# The kernels compile with the labs' XLA flag (gfxlab.labs.lab_xla_flags: a third faster).
 lab: $(VENV)/.installed-lab
-	$(BIN)/jupyter lab --notebook-dir=labs $(ROOT_FLAG) $(LAB_ARGS)
+	XLA_FLAGS="$$($(BIN)/python -c 'import gfxlab.labs as l; print(l.lab_xla_flags())')" \
+		$(BIN)/jupyter lab --notebook-dir=labs $(ROOT_FLAG) $(LAB_ARGS)
 
 # pytest exits 5 when it collects nothing; that is not a failure of the suite.
 test: $(VENV)/.installed-dev

@@ -23,7 +23,7 @@ import sys
 import tempfile
 import time
 
-from .labs import HEADLESS_ENV  # set to "1" in the kernels the runner starts
+from .labs import HEADLESS_ENV, lab_xla_flags  # "1" in the kernels the runner starts
 
 # nbformat validates notebooks with jsonschema, which imports `rfc3987_syntax` for its
 # "iri" format when that package is installed (JupyterLab pulls it in); it builds an
@@ -62,9 +62,11 @@ def jax_cache_dir() -> pathlib.Path:
 
 
 def kernel_env(*, cache: bool = True) -> dict[str, str]:
-    """The environment of a lab kernel: ours, headless, with the JAX cache switched on."""
+    """The environment of a lab kernel: ours, headless, with the JAX cache switched on and
+    the labs' XLA flag (`gfxlab.labs.lab_xla_flags`)."""
     env = dict(os.environ)
     env[HEADLESS_ENV] = "1"
+    env["XLA_FLAGS"] = lab_xla_flags(env.get("XLA_FLAGS", ""))
     # figures go inline into the notebook, whatever backend the caller uses (e.g. Agg)
     env["MPLBACKEND"] = "module://matplotlib_inline.backend_inline"
     if cache:

@@ -94,32 +94,6 @@ settings.register_profile("thorough", max_examples=1000, deadline=None)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 
-def rerun_with_default_emitters(request) -> bool:
-    """Run the calling test again in a child pytest with XLA's default CPU emitters, if the
-    suite uses the legacy ones; return whether it did (and passed).
-
-    For the few programs that XLA's legacy emitters at -O0 compile wrongly (a known
-    miscompile: the tiled silhouette's custom VJP, differentiated in the vertices and
-    sigma together, gets two vertices' gradients 5 % off); users never run that setting.
-    """
-    if "--xla_cpu_use_fusion_emitters=false" not in os.environ["XLA_FLAGS"]:
-        return False
-    env = dict(os.environ, GFXLAB_TEST_XLA_FLAGS=PORTABLE_FAST_COMPILE_XLA_FLAGS)
-    env.pop("PYTEST_XDIST_WORKER", None)
-    run = subprocess.run(
-        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "no:xdist"]
-        + [request.node.nodeid],
-        cwd=request.config.rootpath,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert run.returncode == 0, run.stdout[-4000:] + run.stderr[-2000:]
-    assert "1 passed" in run.stdout, run.stdout[-2000:]
-    return True
-
-
 @pytest.fixture(params=[False, True], ids=["eager", "jit"])
 def maybe_jit(request):
     """Run a test body both unjitted and under `jax.jit` (dm-pix style).

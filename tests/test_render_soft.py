@@ -4,7 +4,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from conftest import rerun_with_default_emitters
 from jax.test_util import check_grads
 from matplotlib.path import Path
 from render_scenes import tiny_scene
@@ -57,11 +56,9 @@ def test_tiled_silhouette_equals_dense(maybe_jit):
     assert np.max(dense) > 0.9
 
 
-def test_silhouette_gradients_equal_plain_autodiff(request):
+def test_silhouette_gradients_equal_plain_autodiff():
     """The tiles' custom VJP (recomputed per step, one segment_sum) equals plain autodiff
     of the dense formula, for the vertices and sigma, and passes check_grads."""
-    if rerun_with_default_emitters(request):  # XLA's legacy emitters miscompile it
-        return
     rng = np.random.default_rng(5)
     shape = (21, 27)
     vertices = random_scene(rng, 12, shape, spread=4.0)

@@ -159,6 +159,30 @@ def test_the_runner_marks_its_kernels_headless():
     assert _runner.kernel_env(cache=False)[glabs.HEADLESS_ENV] == "1"
 
 
+def test_lab_kernels_get_the_labs_xla_flag_once_and_the_users_choice_wins(
+    monkeypatch, tmp_path
+):
+    """The flag is probed in a child once per jaxlib (this one accepts it), the answer kept
+    on disk; flags that already choose the emitters are left alone."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    glabs._xla_knows_lab_flag.cache_clear()
+    try:
+        assert glabs.lab_xla_flags("--xla_dump_to=/x") == f"--xla_dump_to=/x {glabs.LAB_XLA_FLAG}"
+        (answer,) = (tmp_path / "gfxlab").iterdir()
+        assert answer.read_text() == "accepted\n"
+        answer.write_text("rejected\n")  # e.g. a jaxlib without the flag
+        glabs._xla_knows_lab_flag.cache_clear()
+        assert glabs.lab_xla_flags("--a") == "--a"
+    finally:
+        glabs._xla_knows_lab_flag.cache_clear()
+    mine = "--xla_cpu_use_fusion_emitters=true"
+    assert glabs.lab_xla_flags(mine) == mine
+    monkeypatch.setenv("XLA_FLAGS", mine)
+    assert _runner.kernel_env(cache=False)["XLA_FLAGS"] == mine
+    with pytest.raises(TypeError, match="`flags`"):
+        glabs.lab_xla_flags(["--a"])
+
+
 def test_interact_shows_the_default_picture_once_when_headless(monkeypatch):
     import ipywidgets
 
