@@ -72,6 +72,28 @@ def not_none(x, name: str):
     return x
 
 
+def to_jax(x, *, floating: bool = False) -> jax.Array:
+    """`jnp.asarray(x)`, without compiling anything for host data.
+
+    JAX compiles a small copy program for `jnp.asarray` of a NumPy array (a conversion for
+    a list) once per shape and dtype: 10-30 ms for every new shape a user passes to an
+    eager function. NumPy arrays, lists and tuples of numbers are therefore converted by
+    NumPy to JAX's canonical dtype (integers and booleans to the default float dtype with
+    `floating=True`) and moved with `jax.device_put`. Anything else (JAX arrays, tracers,
+    Python scalars, which stay weakly typed) goes to `jnp.asarray`, as do inputs NumPy
+    cannot hold as numbers (so that JAX's own errors are kept).
+    """
+    if isinstance(x, np.ndarray | list | tuple) and not is_traced(x):
+        arr = np.asarray(x)
+        if arr.dtype.kind in "biuf":
+            dtype = jnp.result_type(float) if floating and arr.dtype.kind != "f" else arr.dtype
+            return jax.device_put(arr.astype(jax.dtypes.canonicalize_dtype(dtype), copy=False))
+    arr = jnp.asarray(x)
+    if floating and not _is_floating(arr.dtype) and arr.dtype.kind in "biu":
+        arr = arr.astype(jnp.result_type(float))
+    return arr
+
+
 def as_float(x, name: str = "x") -> jax.Array:
     """`x` as a floating JAX array, keeping a floating input dtype.
 
@@ -86,7 +108,7 @@ def as_float(x, name: str = "x") -> jax.Array:
     if isinstance(x, str | bytes):
         raise TypeError(f"`{name}` must be an array of numbers, got {type(x).__name__} {x!r:.40}")
     try:
-        arr = jnp.asarray(x)
+        arr = to_jax(x, floating=True)
     except TypeError as err:
         raise TypeError(f"`{name}` must be an array of numbers, got {type(x).__name__}") from err
     except OverflowError as err:
@@ -113,7 +135,7 @@ def as_numeric(x, name: str = "x") -> jax.Array:
     if x is None or isinstance(x, str | bytes):
         raise TypeError(f"`{name}` must be an array of numbers, got {type(x).__name__}")
     try:
-        arr = jnp.asarray(x)
+        arr = to_jax(x)
     except (TypeError, ValueError, OverflowError) as err:
         raise TypeError(f"`{name}` must be an array of numbers, got {type(x).__name__}") from err
     if jnp.issubdtype(arr.dtype, jnp.integer):

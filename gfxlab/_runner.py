@@ -158,8 +158,18 @@ class LabError(RuntimeError):
 def _html(nb) -> str:
     from nbconvert import HTMLExporter
 
-    body, _ = HTMLExporter().from_notebook_node(nb)
+    exporter = HTMLExporter()
+    # nbconvert passes every code cell's highlighted source through bleach (a third of
+    # the export time) although pygments has escaped it already; the notebooks are the
+    # ones this runner just executed (their code ran on this machine), and their outputs
+    # are sanitised or not exactly as before (`sanitize_html`, off by default).
+    exporter.register_filter("clean_html", _as_text)
+    body, _ = exporter.from_notebook_node(nb)
     return body
+
+
+def _as_text(element) -> str:
+    return element.decode() if isinstance(element, bytes) else str(element)
 
 
 def _note(cell, text: str) -> None:

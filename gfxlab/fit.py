@@ -329,35 +329,43 @@ def _solver_state(problem, solver, z, args, f_struct, least_squares, scalar):
 
 
 @eqx.filter_jit
-def _optimistix_init(problem, solver, z, args, f_struct, least_squares, scalar):
-    """The solver state's arrays, and the loss at the start."""
-    _, state = _solver_state(problem, solver, z, args, f_struct, least_squares, scalar)
-    return eqx.filter(state, eqx.is_array), problem.loss(z, args)
-
-
-@eqx.filter_jit
 def _optimistix_chunk(problem, solver, state, args, f_struct, least_squares, scalar, n):
-    """`n` optimistix steps, frozen once the solver's stopping test holds. The solver
-    state's static parts (jaxprs) are rebuilt here, so only its arrays are carried."""
+    """Up to `n` optimistix steps, stopping once the solver's stopping test holds; returns
+    the state, `n` losses (the last one repeated past the stop), `n` "done" flags, and the
+    loss at the start on the first call (else `None`).
+
+    The first call (`state` without solver arrays) also initialises the solver, so a fit
+    that runs in one chunk compiles one program. The solver state's static parts (jaxprs)
+    are rebuilt here, so only its arrays are carried between calls.
+    """
     z0, s_arrays0, done0, best0, i0 = state
     fn, fresh = _solver_state(problem, solver, z0, args, f_struct, least_squares, scalar)
     s_static = eqx.filter(fresh, eqx.is_array, inverse=True)
+    first = s_arrays0 is None
+    if first:
+        s_arrays0 = eqx.filter(fresh, eqx.is_array)
     tags, options = frozenset(), {}
+    entry = problem.loss(z0, args)
+    losses0 = jnp.full((n,), entry)
 
-    def step(carry, _):
-        z, s_arrays, done, best, i = carry
+    def step(carry):
+        z, s_arrays, done, best, i, k, losses = carry
         s = eqx.combine(s_arrays, s_static)
-        z_new, s_new, _ = solver.step(fn, z, args, options, s, tags)
-        keep = lambda a, b: jnp.where(done, a, b)  # noqa: E731
-        z = jax.tree_util.tree_map(keep, z, z_new)
-        s_arrays = jax.tree_util.tree_map(keep, s_arrays, eqx.filter(s_new, eqx.is_array))
-        finished, _ = solver.terminate(fn, z, args, options, eqx.combine(s_arrays, s_static), tags)
+        z, s, _ = solver.step(fn, z, args, options, s, tags)
+        done, _ = solver.terminate(fn, z, args, options, s, tags)
         loss = problem.loss(z, args)
-        best = _keep_best(best, z, loss, jnp.where(done, best[2], i + 1))
-        return (z, s_arrays, done | finished, best, i + 1), (loss, done | finished)
+        best = _keep_best(best, z, loss, i + 1)
+        # Past this step, the buffer holds its loss (the driver cuts there).
+        losses = jnp.where(jnp.arange(n) >= k, loss, losses)
+        return z, eqx.filter(s, eqx.is_array), done, best, i + 1, k + 1, losses
 
-    carry, (losses, dones) = jax.lax.scan(step, (z0, s_arrays0, done0, best0, i0), None, length=n)
-    return carry, losses, dones, None
+    def more(carry):
+        return (carry[5] < n) & ~carry[2]
+
+    start = (z0, s_arrays0, done0, best0, i0, jnp.zeros((), i0.dtype), losses0)
+    z, s_arrays, done, best, i, k, losses = jax.lax.while_loop(more, step, start)
+    dones = done & (jnp.arange(n) >= k - 1)
+    return (z, s_arrays, done, best, i), losses, dones, entry if first else None
 
 
 # ----------------------------------------------------------------------- the driver
@@ -406,8 +414,8 @@ def _check_finite(losses, start_step: int, method: str) -> None:
 
 
 def _runner(problem, method, z, args, scalar, f_struct, options):
-    """(name, initial state, run(state, n) -> (state, losses, dones, entry loss or None),
-    uses_solver_test, the initial loss or None when the first `run` gives it)."""
+    """(name, initial state, run(state, args, n) -> (state, losses, dones, the loss at the
+    start or None after the first call), uses_solver_test)."""
     learning_rate, rtol, atol = options
     if method is None:
         method = "bfgs" if scalar else "levenberg_marquardt"
@@ -416,7 +424,7 @@ def _runner(problem, method, z, args, scalar, f_struct, options):
         optimizer = method if not isinstance(method, str) else _named_optax(method, learning_rate)
         best = (z, jnp.asarray(jnp.inf), jnp.asarray(0))
         state = (z, optimizer.init(z), best, jnp.asarray(0))
-        return name, state, functools.partial(_optax_chunk, problem, optimizer), False, None
+        return name, state, functools.partial(_optax_chunk, problem, optimizer), False
     solver = method if not isinstance(method, str) else _named_optimistix(method, rtol, atol)
     least_squares = isinstance(solver, optx.AbstractLeastSquaresSolver)
     if least_squares and scalar:
@@ -427,24 +435,19 @@ def _runner(problem, method, z, args, scalar, f_struct, options):
         )
     if not least_squares:
         f_struct = jax.ShapeDtypeStruct((), jnp.result_type(*jax.tree_util.tree_leaves(f_struct)))
-    s_arrays, initial_loss = _optimistix_init(
-        problem, solver, z, args, f_struct, least_squares, scalar
-    )
     best = (z, jnp.asarray(jnp.inf), jnp.asarray(0))
-    state = (z, s_arrays, jnp.asarray(False), best, jnp.asarray(0))
+    state = (z, None, jnp.asarray(False), best, jnp.asarray(0))
 
     def run(state, args, n):
         return _optimistix_chunk(problem, solver, state, args, f_struct, least_squares, scalar, n)
 
-    return name, state, run, True, initial_loss
+    return name, state, run, True
 
 
-def _drive(run, state, args, max_steps, chunk_size, solver_test, name, bar, initial_loss):
+def _drive(run, state, args, max_steps, chunk_size, solver_test, name, bar):
     """Run compiled chunks until `max_steps` or convergence; check each for NaN/inf.
     Returns the state, the loss history (the initial loss first) and convergence."""
     history, steps_done, converged = [], 0, False
-    if initial_loss is not None:
-        history.append(_initial(initial_loss, name, bar))
     while steps_done < max_steps:
         n = min(chunk_size, max_steps - steps_done)
         state, losses, dones, entry = run(state, args, n)
@@ -531,14 +534,12 @@ def fit(
     )
     problem, z = _setup(fn, params, fixed, bounds)
     scalar, f_struct = _describe(problem, z, args)
-    name, state, run, solver_test, initial = _runner(
-        problem, method, z, args, scalar, f_struct, options
-    )
+    name, state, run, solver_test = _runner(problem, method, z, args, scalar, f_struct, options)
     if chunk_size is None:
         chunk_size = max(1, max_steps // 20) if progress else max_steps
     bar = _Progress(progress, max_steps, name)
     state, loss_history, converged = _drive(
-        run, state, args, max_steps, min(chunk_size, max_steps), solver_test, name, bar, initial
+        run, state, args, max_steps, min(chunk_size, max_steps), solver_test, name, bar
     )
     return _result(problem, z, state, loss_history, converged, name)
 

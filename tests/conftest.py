@@ -51,39 +51,10 @@ os.environ["XLA_FLAGS"] = f"{USER_XLA_FLAGS} {_test_xla_flags()}".strip()
 import jax  # noqa: E402
 import pytest  # noqa: E402
 from hypothesis import HealthCheck, settings  # noqa: E402
+from jax_frame_filter import memoize_jax_frame_filter  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
-
-
-def _memoize_jax_frame_filter() -> None:
-    """Cache JAX's per-file "is this frame JAX's own?" test (tests only).
-
-    `equinox.error_if` asks it for every frame of the stack each time it traces a check,
-    and JAX answers with `os.path.samefile` against each of ~30 excluded paths: ~1.6 ms a
-    frame, ~100 ms a check under pytest's deep stack, a third of some test files' time.
-    The answer depends only on the file name and the exclusion list, so it is cached on
-    both. A JAX that moved the function keeps its own (only slower).
-    """
-    try:
-        from jax._src import traceback_util
-    except ImportError:
-        return
-    original = getattr(traceback_util, "include_filename", None)
-    excluded = getattr(traceback_util, "_exclude_paths", None)
-    if original is None or not isinstance(excluded, list):
-        return
-    answers: dict[tuple[str, int], bool] = {}
-
-    def include_filename(filename: str) -> bool:
-        key = (filename, len(excluded))
-        if key not in answers:
-            answers[key] = original(filename)
-        return answers[key]
-
-    traceback_util.include_filename = include_filename
-
-
-_memoize_jax_frame_filter()
+memoize_jax_frame_filter()
 
 # CI runs on 2 cores: keep property sweeps modest there; `HYPOTHESIS_PROFILE=thorough`
 # for more.

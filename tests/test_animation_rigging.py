@@ -1,5 +1,7 @@
 """Skeletons (FK, IK), linear blend skinning and the curve deformer (gfxlab.animation)."""
 
+import logging
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -99,7 +101,7 @@ def test_skeleton_bad_inputs():
         A.limit_angles(jnp.zeros(2), jnp.array([[1.0, 0.0], [0.0, 1.0]]))
 
 
-def test_ik_reaches_reachable_targets_2d_with_limits():
+def test_ik_reaches_reachable_targets_2d_with_limits(caplog):
     sk = A.chain(jnp.array([1.0, 0.8, 0.5]))
     # Targets made by FK from poses inside the limits, so they are reachable.
     limits = jnp.array([[-1.5, 1.5], [0.0, 2.0], [-1.0, 1.0], [-1.0, 1.0]])
@@ -109,6 +111,14 @@ def test_ik_reaches_reachable_targets_2d_with_limits():
     np.testing.assert_allclose(result.effector, targets, atol=1e-4)
     assert jnp.all(result.angles >= limits[:, 0] - 1e-12)
     assert jnp.all(result.angles <= limits[:, 1] + 1e-12)
+    # New targets and start of the same shapes reuse every compiled program.
+    others, start = np.asarray(targets)[::-1], np.array([0.1, 1.0, 0.0, 0.0])
+    with jax.log_compiles(), caplog.at_level(logging.DEBUG):
+        again = A.solve_ik(sk, others, limits=limits, initial=start)
+    assert [r.getMessage() for r in caplog.records if "Compiling" in r.getMessage()] == []
+    np.testing.assert_allclose(again.effector, others, atol=1e-4)
+    with pytest.raises(ValueError, match="`limits`.*high > low"):
+        A.solve_ik(sk, targets, limits=limits[:, ::-1])
 
 
 def test_ik_reaches_reachable_target_3d():

@@ -23,6 +23,7 @@ from typing import NamedTuple
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 from .. import transforms as tf
@@ -402,14 +403,51 @@ def _active_joints(skeleton: Skeleton, effector: int, active) -> jax.Array:
     return jnp.array(sorted(set(int(a) % j for a in active)), int)
 
 
-def _ik_start(initial, limits, k_shape, dtype):
-    """The unconstrained start parameters and the start angles of `solve_ik`."""
+class _IKProblem(eqx.Module):
+    """The residual of `solve_ik`, `effector_position(angles) - target`, as a pytree with
+    its static choices as fields: the same problem shapes give an equal object, so `fit`
+    reuses its compiled steps from one call of `solve_ik` to the next."""
+
+    effector: int = eqx.field(static=True)
+    dim: int = eqx.field(static=True)
+
+    def angles(self, raw_active, raw0, base, limits, active):
+        """All joint angles from the active joints' unconstrained values."""
+        idx = _active_index(active, self.dim)
+        raw = raw0.at[idx].set(raw_active)
+        limited = raw if limits is None else _limited(raw, limits)
+        return base.at[idx].set(limited[idx])
+
+    def globals(self, skeleton, angles):
+        pose = pose_2d(angles) if self.dim == 2 else pose_3d(angles)
+        return _fk_kernel(skeleton.rest, pose, parents=skeleton.parents)
+
+    def __call__(self, raw_active, skeleton, raw0, base, limits, active, target):
+        glob = self.globals(skeleton, self.angles(raw_active, raw0, base, limits, active))
+        return glob[..., self.effector, : self.dim, self.dim] - target
+
+
+def _active_index(active, dim):
+    return (Ellipsis, active) if dim == 2 else (Ellipsis, active, slice(None))
+
+
+@functools.partial(jax.jit, static_argnames=("batch", "dim"))
+def _ik_start(initial, limits, active, *, batch, dim):
+    """The start angles (default: zeros, the middle of the limits), their unconstrained
+    values, one per target, and those of the active joints."""
     if initial is None:
-        raw0 = jnp.zeros(k_shape, dtype)
-        return raw0, limit_angles(raw0, limits)
-    initial = finite_float(initial, "initial").astype(dtype)
-    check_shape(initial, "initial", k_shape)
-    return _raw_from_angles(initial, limits), initial
+        initial = _limited(jnp.zeros_like(limits[..., 0]), limits)
+    raw0 = jnp.broadcast_to(_raw_from_angles(initial, limits), batch + initial.shape)
+    base = jnp.broadcast_to(initial, batch + initial.shape)
+    return raw0, base, raw0[_active_index(active, dim)]
+
+
+@functools.partial(jax.jit, static_argnames=("problem",))
+def _ik_finish(problem, raw_active, skeleton, raw0, base, limits, active, target):
+    """The fitted angles, the global transforms and the effector's position."""
+    angles = problem.angles(raw_active, raw0, base, limits, active)
+    glob = problem.globals(skeleton, angles)
+    return angles, glob, glob[..., problem.effector, : problem.dim, problem.dim]
 
 
 def solve_ik(
@@ -466,29 +504,21 @@ def solve_ik(
     if limits is not None:
         limits = finite_float(limits, "limits").astype(target.dtype)
         check_shape(limits, "limits", k_shape + (2,))
+        if not is_traced(limits):  # (traced: `fit` says that a driver cannot be)
+            low, high = np.moveaxis(np.asarray(limits), -1, 0)
+            if np.any(high <= low):
+                raise ValueError("`limits` must be (low, high) pairs with high > low")
     active = _active_joints(skeleton, effector, active)
-    raw0, base = _ik_start(initial, limits, k_shape, target.dtype)
-
-    batch = target.shape[:-1]
-    raw0 = jnp.broadcast_to(raw0, batch + k_shape)
-    base = jnp.broadcast_to(base, batch + k_shape)
-
-    idx = (Ellipsis, active) if d == 2 else (Ellipsis, active, slice(None))
-
-    def angles_of(raw_active):
-        raw = raw0.at[idx].set(raw_active)
-        limited = raw if limits is None else _limited(raw, limits)
-        return base.at[idx].set(limited[idx])
-
-    def pose_of(angles):
-        return pose_2d(angles) if d == 2 else pose_3d(angles)
-
-    def residual(raw):
-        return joint_positions(skeleton, pose_of(angles_of(raw)))[..., effector, :] - target
-
+    if initial is not None:
+        initial = finite_float(initial, "initial").astype(target.dtype)
+        check_shape(initial, "initial", k_shape)
+    elif limits is None:
+        initial = np.zeros(k_shape, target.dtype)
+    raw0, base, start = _ik_start(initial, limits, active, batch=target.shape[:-1], dim=d)
+    problem = _IKProblem(effector % j, d)
+    data = (skeleton, raw0, base, limits, active, target)
     result = fit(
-        residual, raw0[idx], method=method, max_steps=max_steps, learning_rate=learning_rate
+        problem, start, args=data, method=method, max_steps=max_steps, learning_rate=learning_rate
     )
-    angles = angles_of(result.params)
-    glob = forward_kinematics(skeleton, pose_of(angles))
-    return IKResult(angles, glob, glob[..., effector, :d, d], result)
+    angles, glob, tip = _ik_finish(problem, result.params, *data)
+    return IKResult(angles, glob, tip, result)
