@@ -159,9 +159,7 @@ def test_the_runner_marks_its_kernels_headless():
     assert _runner.kernel_env(cache=False)[glabs.HEADLESS_ENV] == "1"
 
 
-def test_lab_kernels_get_the_labs_xla_flag_once_and_the_users_choice_wins(
-    monkeypatch, tmp_path
-):
+def test_lab_kernels_get_the_labs_xla_flag_once_and_the_users_choice_wins(monkeypatch, tmp_path):
     """The flag is probed in a child once per jaxlib (this one accepts it), the answer kept
     on disk; flags that already choose the emitters are left alone."""
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
