@@ -76,7 +76,7 @@ def maybe_jit(request):
     return lambda fn, **_: fn
 
 
-# The longest units first, so the two workers finish together (xdist hands out work in
+# The longest units first, so the workers finish together (xdist hands out work in
 # collection order): labs, the contract sweep, the grading sandboxes, then the rest.
 _SLOW_FIRST = (
     "test_labs.py::test_lab_runs_top_to_bottom[05",
