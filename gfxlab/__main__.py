@@ -4,7 +4,7 @@
 - `run LAB|all [--out DIR] [--timeout S]`: execute a lab (or every lab) headless and write
   HTML copies (`all` adds an index page).
 - `assign`, `check`, `grade`: autograded assignments (`gfxlab.grading`).
-- `exam [ID] [--markdown FILE]`: the seed exam, solved step by step (`gfxlab.exam`).
+- `exam [ID] [--markdown FILE]`: the course exam, solved step by step (`gfxlab.exam`).
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ commands:
   check NOTEBOOK.ipynb      run an assignment's public tests on a student notebook
   grade SUBMISSION --autograder DIR
                             grade a submission (or a folder of them)
-  exam [ID] [--markdown F]  list the seed exam's questions, or print one worked answer
+  exam [ID] [--markdown F]  list the course exam's questions, or print one worked answer
 
 Run `python -m gfxlab COMMAND --help` for a command's options."""
 

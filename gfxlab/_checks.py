@@ -221,7 +221,8 @@ def static_shape(shape, name: str = "shape") -> tuple[int, int]:
     if is_traced(shape):
         raise TypeError(
             f"`{name}` sets an array size, so it must be a static shape such as (H, W), "
-            "not a traced array (pass it as a static argument of `jax.jit`)"
+            "not a traced array (pass it to `jax.jit` as a static argument, as a tuple: "
+            "a NumPy array is not hashable)"
         )
     if isinstance(shape, np.ndarray | jax.Array) and shape.ndim == 1:
         shape = tuple(np.asarray(shape).tolist())

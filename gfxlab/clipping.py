@@ -3,7 +3,7 @@
 Windows are `(xmin, ymin, xmax, ymax)`; points on the window's edges are inside.
 
 **Outcodes.** Each endpoint gets a 4-bit region code read in the order LRBT (left,
-right, bottom, top), as in the seed's table:
+right, bottom, top), as in the exam's table:
 
 ```
 1001 | 0001 | 0101          left   = 0b1000   (x < xmin)
@@ -18,10 +18,10 @@ If `code0 & code1 != 0` both ends are outside the same edge: trivially reject.
 Otherwise pick an outside endpoint (`p0` if its code is not zero, else `p1`) and move
 it to the window edge of its first set bit, testing the edges in the order
 **top, bottom, right, left** (`EDGE_ORDER`, the low bit first), then repeat. This is
-the order of the textbook walkthrough the seed follows: `AD` is clipped at the top
+the order of the textbook walkthrough the exam follows: `AD` is clipped at the top
 edge first although `D` (code 1001) is also left of the window.
 
-The seed prints the codes of the `EI` walkthrough in its source's bit order
+The exam prints the codes of the `EI` walkthrough in its source's bit order
 (top, bottom, right, left): there `E = 0100` means "below" and `I = 1010` "above and
 right". Read in the LRBT order used everywhere else (and here) the same points have
 `E = 0010`, `I = 0101`, `H = 0100`; the edges used, bottom then top then right, are the
@@ -92,7 +92,7 @@ TOP = 0b0001
 EDGE_ORDER = ("top", "bottom", "right", "left")
 _EDGE_BITS = {"top": TOP, "bottom": BOTTOM, "right": RIGHT, "left": LEFT}
 
-#: Concrete coordinates for the seed's Q1f walkthrough (window `(xmin, ymin, xmax, ymax)`).
+#: Concrete coordinates for the exam's Q1f walkthrough (window `(xmin, ymin, xmax, ymax)`).
 #: `AD` (A inside, D = 1001) is clipped at the top edge in B and accepted as `AB`; `C` is
 #: where `AD` crosses the left edge's line, which the top-first order never computes.
 #: `EI` (E = 0010 below, I = 0101 above-right) is clipped at the bottom edge in F, then

@@ -15,7 +15,7 @@ Examples:
     >>> from gfxlab import transforms as tf
     >>> square = jnp.array([[-.5, -.5], [.5, -.5], [.5, .5], [-.5, .5]])
     >>> M = tf.compose(tf.translate([1.0, 1.0]), tf.rotate(jnp.pi / 2))
-    >>> tf.apply(M, square).round(6).tolist()  # the seed's Q2b: A'(-1/2, 1/2), B'(-1/2, 3/2)
+    >>> tf.apply(M, square).round(6).tolist()  # the exam's Q2b: A'(-1/2, 1/2), B'(-1/2, 3/2)
     [[-0.5, 0.5], [-0.5, 1.5], [-1.5, 1.5], [-1.5, 0.5]]
 """
 
@@ -194,7 +194,7 @@ def scale(
     """Scaling by `factors` about the origin, or about the fixed point `center`.
 
     About a fixed point this is `T(center) @ S(factors) @ T(-center)`, i.e.
-    `[[s, center * (1 - s)], [0, 1]]` (the seed's Q2c).
+    `[[s, center * (1 - s)], [0, 1]]` (the exam's Q2c).
 
     **Arguments:**
 
@@ -234,7 +234,7 @@ def shear(
 
     A factor named `ab` adds `ab * b` to coordinate `a`; e.g. `shear(xy=k)` is the 2D
     x-shear `x' = x + k y`. With only `xy`/`yx` the result is 2D (3x3); giving any of
-    `xz, yz, zx, zy` makes it 3D (4x4). For a general linear part (such as the seed's
+    `xz, yz, zx, zy` makes it 3D (4x4). For a general linear part (such as the exam's
     Q2f matrix, which is not a pure shear) use `linear`.
 
     **Returns:** the homogeneous shear matrix.
@@ -395,7 +395,7 @@ def _apply(matrix, points):
 def window_to_viewport(
     window: Float[Array, "4"], viewport: Float[Array, "4"]
 ) -> Float[Array, "3 3"]:
-    """The 2D window-to-viewport (workstation) transform (the seed's Q2a).
+    """The 2D window-to-viewport (workstation) transform (the exam's Q2a).
 
     Translate the window's lower-left corner to the origin, scale by
     `s = viewport size / window size`, translate to the viewport's lower-left corner:

@@ -238,9 +238,9 @@ _AXIS_INDEX = {"x": 0, "y": 1, "z": 2}
 
 
 def plane_projection(axis: str) -> Float[Array, "4 4"]:
-    """The seed's orthographic projection matrix that zeroes one coordinate.
+    """The exam's orthographic projection matrix that zeroes one coordinate.
 
-    `plane_projection("z")` is the seed's `[T_z]` (projection onto the plane z = 0,
+    `plane_projection("z")` is the exam's `[T_z]` (projection onto the plane z = 0,
     the front view), `"y"` gives `[T_y]` (top view, onto y = 0) and `"x"` gives
     `[T_x]` (side view, onto x = 0).
     """
@@ -261,11 +261,11 @@ ORTHOGRAPHIC_VIEWS: dict[str, tuple[tuple[float, float, float], tuple[float, flo
 
 
 def orthographic_view(name: str) -> Float[Array, "4 4"]:
-    """One of the six orthographic views of the seed's table, as a 4x4 matrix.
+    """One of the six orthographic views of the exam's table, as a 4x4 matrix.
 
     The result maps a point to its drawing coordinates `(u, v, 0)`: `u` to the right
     and `v` up as seen from the centre of projection (e.g. the front view keeps x, y;
-    the rear view mirrors x; the top view has u = x and v = -z). It is the seed's
+    the rear view mirrors x; the top view has u = x and v = -z). It is the exam's
     zeroing matrix applied after turning the object to face the viewer.
 
     **Arguments:**

@@ -20,7 +20,7 @@ Examples:
     >>> import jax.numpy as jnp
     >>> from gfxlab import curves
     >>> abcd = jnp.array([[1, 1], [2, 3], [4, 3], [6, 4.0]])
-    >>> curves.bezier(abcd, jnp.array([0.25, 0.5])).tolist()  # the seed's question
+    >>> curves.bezier(abcd, jnp.array([0.25, 0.5])).tolist()  # the exam's question
     [[1.921875, 2.171875], [3.125, 2.875]]
     >>> curves.bernstein(3, jnp.array([0.5])).tolist()
     [[0.125, 0.375, 0.375, 0.125]]

@@ -24,7 +24,7 @@ def ellipse(
     **Arguments:**
 
     - `center`: `(h, k)`, `(..., 2)`.
-    - `radii`: `(rx, ry)`, the semi-axes along the (rotated) x and y axes (the seed's
+    - `radii`: `(rx, ry)`, the semi-axes along the (rotated) x and y axes (the exam's
       `a`, `b`), `(..., 2)`.
     - `angle`: rotation in radians, `(...)`.
     - `t`: parameters `(N,)`; `0 <= t < 2 pi` traces the ellipse once.

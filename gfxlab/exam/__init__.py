@@ -1,4 +1,4 @@
-"""The seed exam, solved step by step with gfxlab.
+"""The course exam, solved step by step with gfxlab.
 
 Every question of the course's exam (Q1a..Q5f, with the unnumbered Bezier
 question of section 4 as Q4f) is registered here with its marks and a `solve()` that

@@ -21,7 +21,7 @@ def main(command: str = "exam", argv: list[str] | None = None) -> int:
     """`python -m gfxlab exam [ID] [--markdown [FILE]] [--set NAME=VALUE ...]`."""
     parser = argparse.ArgumentParser(
         prog="python -m gfxlab exam",
-        description="The seed exam solved with gfxlab: list the questions or show one answer.",
+        description="The course exam solved with gfxlab: list the questions or show one answer.",
     )
     parser.add_argument("id", nargs="?", help="question id, e.g. Q2b; 'all' for every answer")
     parser.add_argument(

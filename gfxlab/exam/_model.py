@@ -41,7 +41,7 @@ class Answer:
     - `summary`: the answer in a few sentences.
     - `steps`: the computation, step by step.
     - `values`: the numeric results by name (for checking and grading).
-    - `errata`: mistakes found in the seed's answer key for this question.
+    - `errata`: mistakes found in the exam's answer key for this question.
     - `see_also`: the lab section and gfxlab calls that demonstrate it.
     - `figure`: a function returning a matplotlib figure, or None.
     """

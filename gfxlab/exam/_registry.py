@@ -1,4 +1,4 @@
-"""Every question of the seed exam, registered by id, and the lookups on it."""
+"""Every question of the course exam, registered by id, and the lookups on it."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ def _build() -> dict[str, Question]:
     return {qid: questions[qid] for qid in sorted(questions)}
 
 
-#: Every question of the seed, by id, in exam order. Each is worth 5 marks.
+#: Every question of the exam, by id, in exam order. Each is worth 5 marks.
 QUESTIONS: dict[str, Question] = _build()
 
 

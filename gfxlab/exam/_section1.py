@@ -1,4 +1,4 @@
-"""Section 1 of the seed exam: displays, scan conversion, aliasing, video, clipping."""
+"""Section 1 of the course exam: displays, scan conversion, aliasing, video, clipping."""
 
 from __future__ import annotations
 
@@ -111,7 +111,7 @@ def _q1f(q: Question) -> Answer:
             "Each endpoint gets a 4-bit region code. OR = 0000 accepts the segment at once, "
             "AND != 0000 rejects it at once (both ends beyond the same edge); otherwise an "
             "outside endpoint is moved to the window edge named by one of its set bits and "
-            "the tests repeat. On the seed's picture AD is clipped once (at the top edge) "
+            "the tests repeat. On the exam's picture AD is clipped once (at the top edge) "
             "and EI three times."
         ),
         steps=tuple(steps),
@@ -138,7 +138,7 @@ _TRACE_COLUMNS = ("iter", "p0", "p1", "code0", "code1", "AND", "OR", "action", "
 
 
 def _clip_segment(example, window, name):
-    """Cohen-Sutherland on the seed's segment `name` ("AD"): the step and its trace."""
+    """Cohen-Sutherland on the exam's segment `name` ("AD"): the step and its trace."""
     import jax.numpy as jnp
 
     from gfxlab import clipping

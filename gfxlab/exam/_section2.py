@@ -1,4 +1,4 @@
-"""Section 2 of the seed exam: 2D and 3D transforms, projections."""
+"""Section 2 of the course exam: 2D and 3D transforms, projections."""
 
 from __future__ import annotations
 

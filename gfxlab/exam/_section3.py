@@ -1,4 +1,4 @@
-"""Section 3 of the seed exam: viewing, the BRDF, photometry and colorimetry."""
+"""Section 3 of the course exam: viewing, the BRDF, photometry and colorimetry."""
 
 from __future__ import annotations
 

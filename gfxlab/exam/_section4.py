@@ -1,4 +1,4 @@
-"""Section 4 of the seed exam: hidden surfaces and curves."""
+"""Section 4 of the course exam: hidden surfaces and curves."""
 
 from __future__ import annotations
 
@@ -81,7 +81,7 @@ def _q4f(q: Question) -> Answer:
             "i.e. order 4 in the B-spline sense (order = degree + 1).",
             "The key stops after writing the formula; the points are computed above.",
         ),
-        see_also="Lab 06 §the seed's Bezier question; gfxlab.curves.bezier(control_points, u), "
+        see_also="Lab 06 §the exam's Bezier question; gfxlab.curves.bezier(control_points, u), "
         "gfxlab.curves.de_casteljau.",
         figure=lambda: _figure_bezier(points),
     )

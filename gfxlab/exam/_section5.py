@@ -1,4 +1,4 @@
-"""Section 5 of the seed exam: images, median filtering, JPEG, animation."""
+"""Section 5 of the course exam: images, median filtering, JPEG, animation."""
 
 from __future__ import annotations
 
@@ -51,7 +51,7 @@ def _q5c(q: Question) -> Answer:
         q,
         summary="A median filter replaces each pixel by the median of its neighbourhood: it "
         "removes impulse (salt-and-pepper) noise while keeping edges, and it is "
-        "non-linear. The seed's 3×3 block gives 91; the cross gives 77.",
+        "non-linear. The exam's 3×3 block gives 91; the cross gives 77.",
         steps=steps,
         values={"full": full, "cross": cross, "even": even_median},
         errata=(
@@ -66,7 +66,7 @@ def _q5c(q: Question) -> Answer:
     )
 
 
-# The seed's block after the level shift (pixel - 128).
+# The exam's block after the level shift (pixel - 128).
 _SEED_JPEG_BLOCK = np.array(
     [
         [-76, -73, -67, -62, -58, -67, -64, -55],

@@ -3,9 +3,9 @@
 An image here is a raster: an array `(H, W)` (grey) or `(H, W, C)` (colour, C channels)
 of samples on the pixel grid. Inside differentiable code the samples are floats in
 [0, 1]; at the file boundary they are `uint8` (`read_image(..., as_float=False)`,
-`write_image`; the conversion is `gfxlab._pixels.to_uint8`). Pixel `(row, col)` has
-its centre at `(x, y) = (col, H - 1 - row)` (y up), as everywhere in gfxlab
-(`gfxlab.raster.pixel_to_index`).
+`write_image`: floats are clipped to [0, 1], scaled by 255 and rounded half to even,
+booleans become 0/255). Pixel `(row, col)` has its centre at `(x, y) = (col, H - 1 - row)`
+(y up), as everywhere in gfxlab (`gfxlab.raster.pixel_to_index`).
 
 The submodules, all re-exported here:
 

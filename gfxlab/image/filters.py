@@ -110,7 +110,7 @@ def _pad(image: jax.Array, window: tuple[int, int], mode: str, cval) -> jax.Arra
 
 
 def cross_footprint(radius: int = 1) -> np.ndarray:
-    """The plus-shaped footprint: `radius=1` is the 5-pixel cross of the seed.
+    """The plus-shaped footprint: `radius=1` is the 5-pixel cross of the exam.
 
     **Returns:** a boolean `(2r + 1, 2r + 1)` array, True on the middle row and column.
     """
@@ -208,7 +208,7 @@ def median_filter(
     exactly for windows with an odd number of pixels, integer and float images alike
     (same window placement: offsets `-(k // 2) .. k - 1 - k // 2` along each axis). For an
     even number `2K` of pixels the output is the mean of the K-th and (K+1)-th smallest
-    values (the seed's rule; SciPy instead returns the (K+1)-th): a float image, since the
+    values (the exam's rule; SciPy instead returns the (K+1)-th): a float image, since the
     mean of two integers can be a half-integer (round it yourself if you need integers).
 
     It is computed with a pruned compare-exchange network on shifted views of the padded
@@ -234,7 +234,7 @@ def median_filter(
     The filtered image, same shape; same dtype for odd windows, float for even windows.
 
     >>> img = np.array([[91, 55, 90], [77, 68, 95], [115, 151, 210]], dtype=np.uint8)
-    >>> int(median_filter(img, size=3)[1, 1])  # the seed's 3x3 example
+    >>> int(median_filter(img, size=3)[1, 1])  # the exam's 3x3 example
     91
     """
     image = _check_filter_image(image)

@@ -1,7 +1,8 @@
 """Image files: read, write and describe PNG, JPEG, BMP, TIFF and GIF with Pillow.
 
 Pillow is imported only when a file is touched. At the file boundary samples are
-`uint8` (`gfxlab._pixels.to_uint8` converts float images); `read_image` returns floats
+`uint8` (`write_image` clips float images to [0, 1], scales them by 255 and rounds
+half to even); `read_image` returns floats
 in [0, 1] by default. A file Pillow cannot read (not an image, truncated, corrupt, or
 larger than Pillow's decompression-bomb limit) raises `ImageFileError` naming the file.
 """

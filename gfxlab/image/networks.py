@@ -115,7 +115,7 @@ def median(values: Shaped[Array, "*batch n"], *, axis: int = -1) -> Shaped[Array
 
     For an odd count it is the middle value (same dtype as `values`); for an even count
     `2K` it is the mean of the K-th and (K+1)-th smallest values (a float), the rule the
-    seed gives for even windows.
+    exam (`gfxlab.exam`, Q5c) gives for even windows.
 
     **Arguments:**
 

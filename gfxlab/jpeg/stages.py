@@ -296,7 +296,7 @@ def _check_block(x, name):
 
 
 def dct2(block: Float[Array, "*batch 8 8"]) -> Float[Array, "*batch 8 8"]:
-    """Orthonormal 2-D DCT-II of 8 x 8 blocks (the seed's `G[u, v]` formula).
+    """Orthonormal 2-D DCT-II of 8 x 8 blocks (the exam's `G[u, v]` formula).
 
     **Arguments:**
 

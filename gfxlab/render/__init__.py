@@ -15,7 +15,7 @@ textures, and the classic hidden-surface algorithms.
 - Hidden-surface removal (module `hsr`): `zbuffer`, `painter`, `warnock`, `scanline`, `raycast`
   on screen-space triangle scenes made by `screen_scene`.
 
-All distances are in pixels with the project's pixel convention (`gfxlab._pixels`: y up,
+All distances are in pixels with the project's pixel convention (see `gfxlab.raster`: y up,
 pixel centres on integers); projection is the camera's (`Camera.to_pixels`).
 
 Examples:

@@ -326,7 +326,7 @@ def warnock(
 
     The image is padded to a `2^L x 2^L` square. At each level every undecided cell
     (a rectangle of pixel centres) is classified against every triangle as disjoint,
-    surrounding, or intersecting/contained, and decided by the seed's tests: (1) all
+    surrounding, or intersecting/contained, and decided by the exam's tests: (1) all
     disjoint: background; (2) one intersecting or contained polygon: background, then
     that polygon scan-converted; (3) one surrounding polygon and nothing else: its
     colour; (4) a surrounding polygon nearer than all others at the cell's four
@@ -507,7 +507,7 @@ def raycast(
     the nearest hit is kept.
 
     Cost `pixels x polygons` intersection tests without a spatial data structure (the
-    seed's `O(#pixels, #objects)`); memory is the frame buffer plus the object database
+    exam's `O(#pixels, #objects)`); memory is the frame buffer plus the object database
     (the triangles). Arguments as for `zbuffer`; no depth buffer (`depth` is None).
     Counters: `polygon_tests` (ray-polygon intersection tests) and `depth_tests`
     (comparisons of hits along a ray).

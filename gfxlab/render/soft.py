@@ -9,7 +9,7 @@ temperature `gamma`, plus a background term:
     w_j = D_j exp(z_j / gamma) / (sum_k D_k exp(z_k / gamma) + exp(eps_bg / gamma)).
 
 `sigma` is in pixels^2 and all distances are in pixels (y up, pixel centres on
-integers, `gfxlab._pixels`), so the look does not change with resolution. A face whose
+integers, as in `gfxlab.raster`), so the look does not change with resolution. A face whose
 probability at a pixel is below `eps` is dropped there, which makes each face's reach
 finite (a margin of `sqrt(sigma * log(1 / eps - 1))` pixels), so the image is cut into
 tiles that only see the faces binned into them (see `_tiles`).
