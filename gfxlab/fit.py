@@ -456,6 +456,8 @@ def _drive(run, state, args, max_steps, chunk_size, solver_test, name, bar):
         losses, dones = np.asarray(losses), np.asarray(dones)
         if solver_test and dones.any():  # steps after convergence repeat the loss
             losses, converged = losses[: int(np.argmax(dones)) + 1], True
+        losses, exact = _cut_at_exact_solution(losses, history)
+        converged = converged or exact
         _check_finite(losses, steps_done + 1, name)
         history.append(losses)
         steps_done += int(losses.shape[0])
@@ -463,6 +465,18 @@ def _drive(run, state, args, max_steps, chunk_size, solver_test, name, bar):
         if converged:
             break
     return state, np.concatenate(history), converged
+
+
+def _cut_at_exact_solution(losses: np.ndarray, history: list) -> tuple[np.ndarray, bool]:
+    """The losses before the first NaN/inf that follows a loss of exactly 0, and whether
+    that happened. A Gauss-Newton step from an exact solution can divide 0 by 0 (the
+    Jacobian of `r**2` vanishes where `r = 0`): that is convergence, not a failing fit."""
+    bad = ~np.isfinite(losses)
+    if not bad.any():
+        return losses, False
+    first = int(np.argmax(bad))
+    before = losses[first - 1] if first else (history[-1][-1] if history else np.nan)
+    return (losses[:first], True) if before == 0 else (losses, False)
 
 
 def _initial(loss, name: str, bar: _Progress) -> np.ndarray:

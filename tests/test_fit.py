@@ -107,6 +107,18 @@ def test_non_float_leaves_are_held_fixed():
     np.testing.assert_allclose(result.params["w"], 2.0, atol=1e-9)
 
 
+@pytest.mark.parametrize("chunk_size", [None, 5])
+def test_gauss_newton_stepping_off_an_exact_solution_is_convergence(chunk_size):
+    """The Jacobian of `(p - 3)**2` vanishes at the solution, so Gauss-Newton's next step
+    is 0 / 0: the fit stops at the exact solution instead of reporting a NaN objective."""
+    start = np.zeros(5, np.float32)  # float32 reaches p == 3 exactly
+    result = fit(lambda p: (p - 3.0) ** 2, start, method="gauss_newton", chunk_size=chunk_size)
+    assert result.converged and result.loss == 0.0
+    assert np.isfinite(np.asarray(result.loss_history)).all()
+    assert result.num_steps == len(result.loss_history) - 1 < 100
+    np.testing.assert_array_equal(result.params, 3.0)
+
+
 def test_nan_residual_raises_naming_the_step():
     with pytest.raises(FitError, match="NaN or inf at step"):
         fit(
