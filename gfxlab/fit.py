@@ -134,6 +134,22 @@ def _count(value, name: str, *, optional: bool = False) -> int | None:
         raise FitError(str(err)) from None
 
 
+_DRIVER_MESSAGE = (
+    "`fit` is a driver that runs compiled steps in a Python loop; call it outside "
+    "`jax.jit`, `jax.grad` and `jax.vmap` (to differentiate through a solve use "
+    "`optimistix.least_squares` or `optimistix.minimise`, which are traceable)"
+)
+
+# What JAX raises when the driver meets a value traced by an outer transformation that
+# `fn` captured (a closure over the traced variable, which `_check_call` cannot see).
+_OUTER_TRACE_ERRORS = (
+    jax.errors.TracerArrayConversionError,
+    jax.errors.ConcretizationTypeError,
+    jax.errors.TracerBoolConversionError,
+    jax.errors.TracerIntegerConversionError,
+)
+
+
 def _check_call(fn, params, args, method, progress) -> None:
     if not callable(fn):
         raise TypeError(
@@ -146,11 +162,7 @@ def _check_call(fn, params, args, method, progress) -> None:
     if not isinstance(progress, bool):
         raise TypeError(f"`progress` must be True or False, got {progress!r:.60}")
     if is_traced((params, args)):
-        raise TypeError(
-            "`fit` is a driver that runs compiled steps in a Python loop; call it outside "
-            "`jax.jit`, `jax.grad` and `jax.vmap` (to differentiate through a solve use "
-            "`optimistix.least_squares` or `optimistix.minimise`, which are traceable)"
-        )
+        raise TypeError(_DRIVER_MESSAGE)
     if isinstance(method, str):
         if method not in METHODS:
             raise FitError(
@@ -546,16 +558,19 @@ def fit(
         _positive_number(rtol, "rtol", allow_zero=True),
         _positive_number(atol, "atol", allow_zero=True),
     )
-    problem, z = _setup(fn, params, fixed, bounds)
-    scalar, f_struct = _describe(problem, z, args)
-    name, state, run, solver_test = _runner(problem, method, z, args, scalar, f_struct, options)
-    if chunk_size is None:
-        chunk_size = max(1, max_steps // 20) if progress else max_steps
-    bar = _Progress(progress, max_steps, name)
-    state, loss_history, converged = _drive(
-        run, state, args, max_steps, min(chunk_size, max_steps), solver_test, name, bar
-    )
-    return _result(problem, z, state, loss_history, converged, name)
+    try:
+        problem, z = _setup(fn, params, fixed, bounds)
+        scalar, f_struct = _describe(problem, z, args)
+        name, state, run, solver_test = _runner(problem, method, z, args, scalar, f_struct, options)
+        if chunk_size is None:
+            chunk_size = max(1, max_steps // 20) if progress else max_steps
+        bar = _Progress(progress, max_steps, name)
+        state, loss_history, converged = _drive(
+            run, state, args, max_steps, min(chunk_size, max_steps), solver_test, name, bar
+        )
+        return _result(problem, z, state, loss_history, converged, name)
+    except _OUTER_TRACE_ERRORS as err:
+        raise TypeError(_DRIVER_MESSAGE + f" ({type(err).__name__})") from err
 
 
 def _result(problem, z, state, loss_history, converged, name) -> FitResult:

@@ -19,7 +19,9 @@ Example (in a notebook):
 
 The lab kernels (`make lab`, `python -m gfxlab run`) also compile with XLA's older CPU
 emitters (`lab_xla_flags`): a lab compiles a hundred small programs, and those emitters
-compile them a third faster at the same optimisation level, with the same results.
+compile them a third faster at the same optimisation level, with the same results. To
+keep XLA's own choice, set `XLA_FLAGS=--xla_cpu_use_fusion_emitters=true` before
+`make lab` or `python -m gfxlab run` (a user's setting of that flag always wins).
 
 Importing this module is light: ipywidgets is imported only when `interact` is called,
 JAX never.

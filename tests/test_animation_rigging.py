@@ -119,6 +119,13 @@ def test_ik_reaches_reachable_targets_2d_with_limits(caplog):
     np.testing.assert_allclose(again.effector, others, atol=1e-4)
     with pytest.raises(ValueError, match="`limits`.*high > low"):
         A.solve_ik(sk, targets, limits=limits[:, ::-1])
+    # A joint starting on (or past) its limit would stay pinned there, and a joint that
+    # does not move would keep an angle outside its limits.
+    for start in ([1.5, 1.0, 0.0, 0.0], [0.0, 1.0, 0.0, 3.0]):
+        with pytest.raises(ValueError, match="`initial` must lie strictly inside `limits`"):
+            A.solve_ik(sk, targets, limits=limits, initial=np.array(start))
+    with pytest.raises(TypeError, match="`solve_ik` is a driver"):
+        jax.jit(lambda t: A.solve_ik(sk, t).angles)(targets)
 
 
 def test_ik_reaches_reachable_target_3d():

@@ -167,6 +167,14 @@ def test_fit_under_a_transformation_says_it_is_a_driver(transform):
     with pytest.raises(TypeError, match="`fit` is a driver"):
         transform(outer)(start)
 
+    # The traced value captured by `fn` (a closure), not passed in `params` or `args`.
+    def captured(scale):
+        return jnp.sum(fit(lambda p: p - scale, jnp.zeros(2), max_steps=3).params)
+
+    scale = jnp.ones(2) if transform is jax.vmap else jnp.asarray(1.0)
+    with pytest.raises(TypeError, match="`fit` is a driver"):
+        transform(captured)(scale)
+
 
 # --- argument checks -------------------------------------------------------------------
 

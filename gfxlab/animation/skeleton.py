@@ -477,8 +477,8 @@ def solve_ik(
     - `effector`: index of the end-effector joint (default the last, the tip of a
       `chain`).
     - `initial`: start angles, 2D `(J,)`, 3D rotation vectors `(J, 3)` (broadcast over
-      the targets); default zeros
-      (the middle of the limits when limits are given).
+      the targets), strictly inside `limits` when they are given; default zeros (the
+      middle of the limits when limits are given).
     - `limits`: `(J, 2)` (2D) or `(J, 3, 2)` (3D, per rotation-vector component)
       `(low, high)` in radians; `None` for free joints.
     - `active`: joints that may move (default the effector's ancestors).
@@ -491,6 +491,11 @@ def solve_ik(
     """
     if not isinstance(skeleton, Skeleton):
         raise TypeError(f"`skeleton` must be a Skeleton, got {type(skeleton).__name__}")
+    if is_traced((skeleton, target, initial, limits)):
+        raise TypeError(
+            "`solve_ik` is a driver (it runs `gfxlab.fit.fit`, which steps in a Python "
+            "loop); call it outside `jax.jit`, `jax.grad` and `jax.vmap`"
+        )
     target = finite_float(target, "target")
     d = skeleton.dim
     check_shape(target, "target", (..., d))
@@ -512,6 +517,13 @@ def solve_ik(
     if initial is not None:
         initial = finite_float(initial, "initial").astype(target.dtype)
         check_shape(initial, "initial", k_shape)
+        if limits is not None and not is_traced((initial, limits)):
+            low, high = np.moveaxis(np.asarray(limits), -1, 0)
+            if not np.all((low < np.asarray(initial)) & (np.asarray(initial) < high)):
+                raise ValueError(
+                    "`initial` must lie strictly inside `limits` (low < angle < high): a "
+                    "joint that starts on or beyond a limit cannot move off it"
+                )
     elif limits is None:
         initial = np.zeros(k_shape, target.dtype)
     raw0, base, start = _ik_start(initial, limits, active, batch=target.shape[:-1], dim=d)
