@@ -176,6 +176,13 @@ def test_fit_under_a_transformation_says_it_is_a_driver(transform):
         transform(captured)(scale)
 
 
+def test_a_python_branch_on_the_parameters_keeps_jaxs_own_error():
+    """A mistake inside `fn` (a Python `if` on a traced parameter) is not reported as a
+    call under a transformation."""
+    with pytest.raises(FitError, match="calling `fn` with the initial parameters failed"):
+        fit(lambda p: p - 1.0 if p[0] > 0 else p, jnp.ones(2), max_steps=3)
+
+
 # --- argument checks -------------------------------------------------------------------
 
 
