@@ -65,6 +65,23 @@ def is_traced(x) -> bool:
     return any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree_util.tree_leaves(x))
 
 
+def function_holds_tracer(fn) -> bool:
+    """Whether the function `fn` holds a traced value: in its closure, its defaults, a
+    `functools.partial`'s arguments, or its array leaves (an `eqx.Module`). A driver such
+    as `gfxlab.fit.fit` uses it to tell a call under an outer transformation apart from a
+    mistake inside `fn`."""
+    held = [getattr(fn, "__defaults__", None), getattr(fn, "__kwdefaults__", None)]
+    held += [cell.cell_contents for cell in getattr(fn, "__closure__", None) or ()
+             if cell.cell_contents is not fn]  # fmt: skip
+    if isinstance(fn, functools.partial):
+        held += [fn.func, fn.args, fn.keywords]
+    try:
+        held.append(eqx.filter(fn, eqx.is_array))
+    except Exception:  # not a pytree we can read: nothing more to look at
+        pass
+    return is_traced(held)
+
+
 def not_none(x, name: str):
     """`x` unchanged, after checking it is not `None` (`TypeError` naming `name`)."""
     if x is None:

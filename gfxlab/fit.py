@@ -57,7 +57,7 @@ import optax
 import optimistix as optx
 from jaxtyping import Array, Float, PyTree
 
-from ._checks import is_traced, static_int
+from ._checks import function_holds_tracer, is_traced, static_int
 from ._fit_params import FitError, bounded, fixed_mask, leaf_bounds, unbounded
 
 __all__ = ["fit", "FitResult", "FitError", "METHODS", "MAX_STEPS"]
@@ -570,24 +570,9 @@ def fit(
         )
         return _result(problem, z, state, loss_history, converged, name)
     except _OUTER_TRACE_ERRORS as err:
-        if not _captures_tracer(fn):
+        if not function_holds_tracer(fn):
             raise  # a mistake inside `fn` itself (e.g. `if p > 0:`), JAX's message says it
         raise TypeError(_DRIVER_MESSAGE + f" ({type(err).__name__})") from err
-
-
-def _captures_tracer(fn) -> bool:
-    """Whether `fn` holds a traced value: in its closure, its defaults, a
-    `functools.partial`'s arguments, or its pytree leaves (an `eqx.Module`)."""
-    held = [getattr(fn, "__defaults__", None), getattr(fn, "__kwdefaults__", None)]
-    held += [cell.cell_contents for cell in getattr(fn, "__closure__", None) or ()
-             if cell.cell_contents is not fn]  # fmt: skip
-    if isinstance(fn, functools.partial):
-        held += [fn.func, fn.args, fn.keywords]
-    try:
-        held.append(eqx.filter(fn, eqx.is_array))
-    except Exception:  # not a pytree we can read: nothing more to look at
-        pass
-    return is_traced(held)
 
 
 def _result(problem, z, state, loss_history, converged, name) -> FitResult:

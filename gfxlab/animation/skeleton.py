@@ -450,6 +450,30 @@ def _ik_finish(problem, raw_active, skeleton, raw0, base, limits, active, target
     return angles, glob, glob[..., problem.effector, : problem.dim, problem.dim]
 
 
+def _ik_limits_and_start(limits, initial, k_shape, dtype):
+    """`solve_ik`'s checked `limits` (high > low) and start (strictly inside the limits;
+    `None` for the middle of the limits, zeros without limits). Values are known here:
+    `solve_ik` refuses traced inputs first."""
+    if limits is not None:
+        limits = finite_float(limits, "limits").astype(dtype)
+        check_shape(limits, "limits", k_shape + (2,))
+        low, high = np.moveaxis(np.asarray(limits), -1, 0)
+        if np.any(high <= low):
+            raise ValueError("`limits` must be (low, high) pairs with high > low")
+    if initial is None:
+        return limits, None if limits is not None else np.zeros(k_shape, dtype)
+    initial = finite_float(initial, "initial").astype(dtype)
+    check_shape(initial, "initial", k_shape)
+    if limits is not None and not np.all(
+        (low < np.asarray(initial)) & (np.asarray(initial) < high)
+    ):
+        raise ValueError(
+            "`initial` must lie strictly inside `limits` (low < angle < high): a joint "
+            "that starts on or beyond a limit cannot move off it"
+        )
+    return limits, initial
+
+
 def solve_ik(
     skeleton: Skeleton,
     target: Float[Array, " d"],
@@ -506,26 +530,8 @@ def solve_ik(
         raise TypeError("`method` must name a fit method (see gfxlab.fit.fit), got None")
     if not -j <= effector < j:
         raise ValueError(f"`effector` must be a joint index in [-{j}, {j}), got {effector}")
-    if limits is not None:
-        limits = finite_float(limits, "limits").astype(target.dtype)
-        check_shape(limits, "limits", k_shape + (2,))
-        if not is_traced(limits):  # (traced: `fit` says that a driver cannot be)
-            low, high = np.moveaxis(np.asarray(limits), -1, 0)
-            if np.any(high <= low):
-                raise ValueError("`limits` must be (low, high) pairs with high > low")
+    limits, initial = _ik_limits_and_start(limits, initial, k_shape, target.dtype)
     active = _active_joints(skeleton, effector, active)
-    if initial is not None:
-        initial = finite_float(initial, "initial").astype(target.dtype)
-        check_shape(initial, "initial", k_shape)
-        if limits is not None and not is_traced((initial, limits)):
-            low, high = np.moveaxis(np.asarray(limits), -1, 0)
-            if not np.all((low < np.asarray(initial)) & (np.asarray(initial) < high)):
-                raise ValueError(
-                    "`initial` must lie strictly inside `limits` (low < angle < high): a "
-                    "joint that starts on or beyond a limit cannot move off it"
-                )
-    elif limits is None:
-        initial = np.zeros(k_shape, target.dtype)
     raw0, base, start = _ik_start(initial, limits, active, batch=target.shape[:-1], dim=d)
     problem = _IKProblem(effector % j, d)
     data = (skeleton, raw0, base, limits, active, target)
