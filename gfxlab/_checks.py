@@ -137,10 +137,8 @@ def as_float(x, name: str = "x") -> jax.Array:
         ) from err
     if jnp.issubdtype(arr.dtype, jnp.complexfloating):
         raise TypeError(f"`{name}` must be real, got dtype {arr.dtype}")
-    if not jnp.issubdtype(arr.dtype, jnp.floating):
-        if not (jnp.issubdtype(arr.dtype, jnp.integer) or arr.dtype == jnp.bool_):
-            raise TypeError(f"`{name}` must be an array of numbers, got dtype {arr.dtype}")
-        arr = arr.astype(jnp.result_type(float))
+    if not jnp.issubdtype(arr.dtype, jnp.floating):  # (`to_jax` made numbers floats)
+        raise TypeError(f"`{name}` must be an array of numbers, got dtype {arr.dtype}")
     return arr
 
 

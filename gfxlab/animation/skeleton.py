@@ -324,17 +324,16 @@ def limit_angles(
     return _limit_kernel(raw, limits)
 
 
+_LIMITS_ORDER = "`limits` must be (low, high) pairs with high > low"
+
+
 @checked_jit
 def _limit_kernel(raw, limits):
     raw = check_finite(raw, "raw")
     if limits is None:
         return raw
     limits = check_finite(limits.astype(raw.dtype), "limits")
-    limits = value_error_if(
-        limits,
-        limits[..., 1] <= limits[..., 0],
-        "`limits` must be (low, high) pairs with high > low",
-    )
+    limits = value_error_if(limits, limits[..., 1] <= limits[..., 0], _LIMITS_ORDER)
     return _limited(raw, limits)
 
 
@@ -459,14 +458,13 @@ def _ik_limits_and_start(limits, initial, k_shape, dtype):
         check_shape(limits, "limits", k_shape + (2,))
         low, high = np.moveaxis(np.asarray(limits), -1, 0)
         if np.any(high <= low):
-            raise ValueError("`limits` must be (low, high) pairs with high > low")
+            raise ValueError(_LIMITS_ORDER)  # (NumPy: values are known, no program)
     if initial is None:
         return limits, None if limits is not None else np.zeros(k_shape, dtype)
     initial = finite_float(initial, "initial").astype(dtype)
     check_shape(initial, "initial", k_shape)
-    if limits is not None and not np.all(
-        (low < np.asarray(initial)) & (np.asarray(initial) < high)
-    ):
+    start = np.asarray(initial)
+    if limits is not None and not np.all((low < start) & (start < high)):
         raise ValueError(
             "`initial` must lie strictly inside `limits` (low < angle < high): a joint "
             "that starts on or beyond a limit cannot move off it"
