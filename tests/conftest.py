@@ -76,18 +76,48 @@ def maybe_jit(request):
     return lambda fn, **_: fn
 
 
-# The longest units first, so the workers finish together (xdist hands out work in
-# collection order): labs, the contract sweep, the grading sandboxes, then the rest.
+# Under `--dist loadgroup` the tests of one file share a worker (an `xdist_group` named
+# after the file), so each file's compiled programs are built once, not once per worker
+# (measured: ... ). These files' tests are independent units instead: each lab is a kernel
+# of its own, each contract group a process of its own, and the import checks are
+# subprocesses; spread over the workers they balance the load.
+_UNGROUPED_FILES = ("test_labs.py", "test_contract.py", "test_package.py")
+
+# The longest units first, so the workers finish together (xdist hands out work units
+# in collection order, with `--no-loadscope-reorder`): the slow labs, the contract sweep,
+# the largest test files and grading sandboxes, then the rest.
 _SLOW_FIRST = (
     "test_labs.py::test_lab_runs_top_to_bottom[05",
-    "test_labs.py::test_lab_runs_top_to_bottom[04",
     "test_labs.py::test_lab_runs_top_to_bottom[07",
-    "test_labs.py::test_lab_runs_top_to_bottom[08",
     "test_contract.py",
+    "test_render_renderer.py",
+    "test_labs.py::test_lab_runs_top_to_bottom[03",
+    "test_labs.py::test_lab_runs_top_to_bottom[08",
+    "test_grading_attacks.py",
+    "test_jpeg.py",
     "test_labs.py",
     "test_grading",
+    "test_image_filters.py",
+    "test_render_soft.py",
     "test_wheel.py",
 )
+
+
+class _GroupByFile:
+    """Gives every test of a grouped file the file's `xdist_group`, before pytest-xdist
+    tags the groups' node ids (a conftest holds one implementation of a hook)."""
+
+    @pytest.hookimpl(tryfirst=True)
+    def pytest_collection_modifyitems(self, items):
+        for item in items:
+            file = item.path.name
+            if file.startswith("test_") and file not in _UNGROUPED_FILES:
+                if not item.get_closest_marker("xdist_group"):
+                    item.add_marker(pytest.mark.xdist_group(item.path.stem))
+
+
+def pytest_configure(config):
+    config.pluginmanager.register(_GroupByFile(), "gfxlab-group-by-file")
 
 
 @pytest.hookimpl(trylast=True)
@@ -137,11 +167,13 @@ def pytest_sessionfinish(session, exitstatus):
         _runner.write_index(out, runs)
 
 
-# `GFXLAB_COMPILE_PROFILE=FILE pytest ...` appends one line per test to FILE: the seconds
-# spent compiling (XLA), the number of compiled programs and the test's wall time; sort it
-# to see which tests pay for compilation (the suite's budget is mostly compile time).
+# `GFXLAB_COMPILE_PROFILE=FILE pytest ...` appends one line per test phase to FILE: the
+# seconds spent compiling (XLA), the number of compiled programs, the wall time, and the
+# CPU seconds of this process and of the child processes it waited for (kernels,
+# sandboxes, subprocesses); sort it to see where the suite's CPU goes (mostly compiling).
 _PROFILE = os.environ.get("GFXLAB_COMPILE_PROFILE")
 if _PROFILE:
+    import resource
     import time
 
     import jax.monitoring
@@ -155,13 +187,18 @@ if _PROFILE:
 
     jax.monitoring.register_event_duration_secs_listener(_on_duration)
 
+    def _children_cpu() -> float:
+        usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return usage.ru_utime + usage.ru_stime
+
     @pytest.hookimpl(hookwrapper=True)
-    def pytest_runtest_call(item):
+    def pytest_runtest_protocol(item, nextitem):
         before, start = list(_compiled), time.perf_counter()
+        cpu, children = time.process_time(), _children_cpu()
         yield
-        wall = time.perf_counter() - start
         with open(_PROFILE, "a") as out:
             out.write(
                 f"{_compiled[0] - before[0]:8.2f} {_compiled[1] - before[1]:5d} "
-                f"{wall:8.2f} {item.nodeid}\n"
+                f"{time.perf_counter() - start:8.2f} {time.process_time() - cpu:8.2f} "
+                f"{_children_cpu() - children:8.2f} {item.nodeid}\n"
             )

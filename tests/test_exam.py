@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from gfxlab import exam
+from gfxlab.__main__ import main as gfxlab_main
 
 matplotlib.use("Agg")
 
@@ -232,20 +233,28 @@ def _cli(*args):
     )
 
 
-def test_cli_lists_prints_and_writes_markdown(tmp_path):
+def test_cli_lists_prints_and_writes_markdown(tmp_path, capsys):
+    # The real command once (`python -m gfxlab exam`), then the same `main` in this process:
+    # each further interpreter would only import JAX and gfxlab again.
     listing = _cli()
     assert listing.returncode == 0
     assert all(qid in listing.stdout for qid in exam.QUESTIONS)
-    one = _cli("Q1b", "--set", "radius=5")
-    assert one.returncode == 0 and "p0 = 1 - r = -4" in one.stdout
-    q2a = _cli("Q2a")
-    assert q2a.returncode == 0 and "Step 1. Translate the window corner" in q2a.stdout
-    assert "Step 1. 1." not in q2a.stdout
-    out = tmp_path / "q2b.md"
-    md = _cli("Q2b", "--markdown", str(out))
-    assert md.returncode == 0 and "\\begin{pmatrix}" in out.read_text()
-    bad = _cli("Q7a")
-    assert bad.returncode == 2 and "no question" in bad.stderr
+
+    def run(*args):
+        code = gfxlab_main(["exam", *args])
+        out, err = capsys.readouterr()
+        return code, out, err
+
+    code, out, _ = run("Q1b", "--set", "radius=5")
+    assert code == 0 and "p0 = 1 - r = -4" in out
+    code, out, _ = run("Q2a")
+    assert code == 0 and "Step 1. Translate the window corner" in out
+    assert "Step 1. 1." not in out
+    markdown = tmp_path / "q2b.md"
+    code, _, _ = run("Q2b", "--markdown", str(markdown))
+    assert code == 0 and "\\begin{pmatrix}" in markdown.read_text()
+    code, _, err = run("Q7a")
+    assert code == 2 and "no question" in err
 
 
 @pytest.fixture
