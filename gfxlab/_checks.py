@@ -189,6 +189,7 @@ def check_shape(x: jax.Array, name: str, shape: tuple) -> None:
         ok = all(c is None or c == a for c, a in zip(core, tail, strict=True))
     if not ok:
         pretty = ", ".join("..." if s is Ellipsis else "n" if s is None else str(s) for s in shape)
+        pretty += "," if len(shape) == 1 else ""  # written as Python writes the tuple: (4,)
         raise ValueError(f"`{name}` must have shape ({pretty}), got shape {actual}")
 
 

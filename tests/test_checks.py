@@ -194,6 +194,8 @@ def test_shape_checks():
         C.check_shape(x, "x", (..., 4))
     with pytest.raises(ValueError, match=r"`x` must have shape \(n, 3\)"):
         C.check_shape(x, "x", (None, 3))
+    with pytest.raises(ValueError, match=r"`x` must have shape \(4,\), got shape \(5, 2, 3\)"):
+        C.check_shape(x, "x", (4,))  # a one-entry shape is written as a tuple
     with pytest.raises(ValueError, match=r"`x` must have shape \(\.\.\., 2\) \(points\)"):
         C.check_last_dim(x, "x", (2,), "points")
     with pytest.raises(ValueError, match="`s` must have shape"):
