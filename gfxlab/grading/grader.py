@@ -68,7 +68,20 @@ class StudentFunction:
         self._deadline = deadline or _NO_DEADLINE
 
     def __call__(self, *args, **kwargs):
-        """Call the function in the student process (arguments and result are plain data)."""
+        """Call the function in the student process (arguments and result are plain data).
+
+        **Arguments:**
+
+        - `*args`, `**kwargs`: the call's arguments: `None`, `bool`, `int`, `float`, `str`,
+          lists, tuples and dicts of them, arrays (NumPy, JAX: sent as NumPy arrays);
+          anything else raises `TypeError`.
+
+        **Returns:**
+
+        The function's result, sent back from the student process as plain data. A
+        failed call raises `StudentCallError` (`StudentRaised` when the student's code
+        raised; timeouts and crashes stop further calls of this function).
+        """
         self._deadline.in_rpc += 1
         try:
             return self._session.call(self.name, self.transforms, args, kwargs)
