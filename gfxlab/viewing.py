@@ -288,19 +288,8 @@ class Camera(eqx.Module):
     `view_matrix` uses `rotation`, `target`/`up` are derived from it for reference, and
     `fixed_fields()` tells `gfxlab.fit` to hold them fixed.
 
-    Every field is checked at construction (eagerly and under jit): finite values,
-    `0 < fov_y < pi`, `aspect > 0`, `0 < near < far`, `target != eye`, `up` not parallel
-    to the viewing direction; each error names its argument.
-
-    **Fields:**
-
-    - `eye`, `target`, `up`: 3-vectors (world space).
-    - `fov_y`: vertical field of view, radians.
-    - `aspect`: width / height.
-    - `near`, `far`: clipping distances.
-    - `rotation`: `None`, or the camera-to-world rotation in `representation` (one of
-      `gfxlab.transforms.ROTATION_REPRESENTATIONS`): the camera's x (right), y (up) and
-      z (backwards: it looks down -z) axes are the columns of its matrix.
+    Its fields are the constructor's arguments (`representation` static), checked at
+    construction.
     """
 
     eye: Float[Array, "3"]
@@ -326,6 +315,24 @@ class Camera(eqx.Module):
         rotation=None,
         representation: str = "axis_angle",
     ):
+        """**Arguments:**
+
+        - `eye`, `target`, `up`: 3-vectors (world space); `target` defaults to the
+          origin, `up` to `(0, 1, 0)`. With `rotation`, `target` and `up` are ignored
+          (derived from the rotation instead).
+        - `fov_y`: vertical field of view, radians; default `pi / 4`.
+        - `aspect`: width / height; default 1.
+        - `near`, `far`: clipping distances; default 0.1 and 100.
+        - `rotation`: `None` (default), or the camera-to-world rotation in
+          `representation`: the camera's x (right), y (up) and z (backwards: it looks
+          down -z) axes are the columns of its matrix.
+        - `representation`: one of `gfxlab.transforms.ROTATION_REPRESENTATIONS`; default
+          `"axis_angle"`.
+
+        Every argument is checked (eagerly and under jit): finite values,
+        `0 < fov_y < pi`, `aspect > 0`, `0 < near < far`, `target != eye`, `up` not
+        parallel to the viewing direction; each error names its argument.
+        """
         eye = finite_float(eye, "eye")
         check_last_dim(eye, "eye", (3,), "a 3-vector")
         self.fov_y, self.aspect, self.near, self.far = _lens(fov_y, aspect, near, far)

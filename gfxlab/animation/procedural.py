@@ -104,6 +104,8 @@ class Particles(eqx.Module):
     birth: Float[Array, " N"] = eqx.field(converter=_float_field("birth"))
 
     def __check_init__(self):
+        """Check the fields: `d` is 2 or 3, the shapes match, the values are finite
+        (checked when not traced)."""
         check_last_dim(self.position, "position", (2, 3), "2D or 3D points")
         check_shape(self.position, "position", (None, self.position.shape[-1]))
         if self.velocity.shape != self.position.shape:

@@ -86,6 +86,8 @@ class Skeleton(eqx.Module):
     rest: Float[Array, "J n n"] = eqx.field(converter=lambda r: as_float(r, "rest"))
 
     def __check_init__(self):
+        """Check the fields: at least one joint, parents before their children, `rest` of
+        shape `(J, 3, 3)` or `(J, 4, 4)` and finite (checked when not traced)."""
         j = len(self.parents)
         if j == 0:
             raise ValueError("`parents` must name at least one joint")

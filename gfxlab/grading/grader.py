@@ -55,11 +55,33 @@ class StudentFunction:
     """Proxy for a function in the student process; calling it is an RPC."""
 
     def __init__(self, session: StudentSession, name: str, transforms: tuple = (), deadline=None):
+        """**Arguments:**
+
+        - `session`: the `StudentSession` whose process defines the function.
+        - `name`: the function's name in the student's namespace.
+        - `transforms`: `(op, options)` pairs applied in the student process before the
+          call, innermost first (see `transformed`); default none.
+        - `deadline`: the running test's CPU deadline, told when an RPC starts and ends
+          (so its signal never interrupts one); default none.
+        """
         self._session, self.name, self.transforms = session, name, transforms
         self._deadline = deadline or _NO_DEADLINE
 
     def __call__(self, *args, **kwargs):
-        """Call the function in the student process (arguments and result are plain data)."""
+        """Call the function in the student process (arguments and result are plain data).
+
+        **Arguments:**
+
+        - `*args`, `**kwargs`: the call's arguments: `None`, `bool`, `int`, `float`, `str`,
+          lists, tuples and dicts of them, arrays (NumPy, JAX: sent as NumPy arrays);
+          anything else raises `TypeError`.
+
+        **Returns:**
+
+        The function's result, sent back from the student process as plain data. A
+        failed call raises `StudentCallError` (`StudentRaised` when the student's code
+        raised; timeouts and crashes stop further calls of this function).
+        """
         self._deadline.in_rpc += 1
         try:
             return self._session.call(self.name, self.transforms, args, kwargs)
@@ -74,6 +96,7 @@ class StudentFunction:
         return StudentFunction(self._session, self.name, chain, self._deadline)
 
     def __repr__(self):
+        """`<student function name>`, wrapped in the transforms' names (`grad(name)`)."""
         chain = "".join(f"{op}(" for op, _ in reversed(self.transforms))
         return f"<student function {chain}{self.name}{')' * len(self.transforms)}>"
 
@@ -287,6 +310,17 @@ class Autograder:
     """An assignment's autograder directory: configuration, tests, reference solution."""
 
     def __init__(self, directory, *, warm: bool = False, limits=None):
+        """Load the assignment: its `config.json` and each question's tests.
+
+        **Arguments:**
+
+        - `directory`: the autograder directory (a path); it must hold `config.json`
+          (`FileNotFoundError` otherwise) and `tests/<question>.py` for each question.
+        - `warm`: keep one spare sandbox launched ahead of the next submission (the first
+          one now); default `False`.
+        - `limits`: overrides of the config's limits (a dict or a `Limits`) for that spare
+          sandbox; only used with `warm`.
+        """
         directory = pathlib.Path(directory).resolve()
         config_path = directory / "config.json"
         if not config_path.is_file():

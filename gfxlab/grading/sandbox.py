@@ -144,13 +144,9 @@ class StudentError(SandboxError):
 class Sandbox:
     """One student process and its request/reply pipes.
 
-    **Arguments:**
-
-    - `limits`: a `Limits`.
-    - `preload`: modules the worker imports before any student code (e.g. `("numpy",)`).
-    - `x64`: enable float64 in JAX (`JAX_ENABLE_X64`) in the student process.
-    - `forbid`: modules the student may not import (dotted names; a package forbids its
-      submodules): inside the sandbox they are stubs raising `ImportError`.
+    Constructing one does not start the student process: `start` (or `launch` then
+    `wait_ready`) starts it, `close` stops it; used as a context manager, it is closed
+    on exit.
     """
 
     def __init__(
@@ -162,6 +158,19 @@ class Sandbox:
         forbid: tuple[str, ...] = (),
         protections: Protections | None = None,
     ):
+        """**Arguments:**
+
+        - `limits`: a `Limits`; default `Limits()`.
+        - `preload`: modules the worker imports before any student code; default
+          `("numpy",)`.
+        - `x64`: enable float64 in JAX (`JAX_ENABLE_X64`) in the student process; default
+          `True`.
+        - `forbid`: modules the student may not import (dotted names; a package forbids its
+          submodules, and `"gfxlab"` every gfxlab module but `gfxlab.grading`): inside the
+          sandbox they are stubs raising `ImportError`; default none.
+        - `protections`: how to isolate the process; default `detect_protections()` (this
+          machine, probed once per grader process).
+        """
         self.limits = limits
         self.protections = protections or detect_protections()
         self.preload = tuple(preload)
@@ -563,7 +572,9 @@ class Sandbox:
             self.workdir = None
 
     def __enter__(self):
+        """Return the sandbox itself (not started: call `start`)."""
         return self
 
     def __exit__(self, *exc):
+        """Close the sandbox (`close`); exceptions propagate."""
         self.close()

@@ -17,12 +17,16 @@ from .sandbox import Crash, Limits, ProtocolError, Sandbox, SandboxError, Studen
 
 
 class StudentCallError(AssertionError):
-    """A call to a student function failed (raised, timed out, crashed, bad value).
-
-    `generic`: what a hidden test may show instead of the message, if it differs.
-    """
+    """A call to a student function failed (raised, timed out, crashed, bad value)."""
 
     def __init__(self, message: str, generic: str | None = None):
+        """**Arguments:**
+
+        - `message`: what went wrong, shown with public tests.
+        - `generic`: what a hidden test may show instead, if it differs: the message's part
+          before `" failed: "` followed by `generic` (e.g. `"crashed"`) is kept as the
+          `generic` attribute; default `None` (nothing different).
+        """
         super().__init__(message)
         self.generic = None if generic is None else message.split(" failed: ")[0] + " " + generic
 
@@ -61,6 +65,17 @@ class StudentSession:
         numbers=None,
         sandbox: Sandbox | None = None,
     ):
+        """**Arguments:**
+
+        - `cells`: the submission's code cells (strings), run in order when the process
+          first starts (not here).
+        - `limits`: the `Limits` of the submission; its `budget_seconds` starts now.
+        - `preload`, `x64`, `forbid`: as for `Sandbox` (used when `sandbox` is not given).
+        - `numbers`: how the student numbers the cells (`In [n]`), for messages; default
+          1, 2, ...
+        - `sandbox`: a `Sandbox` (perhaps launched ahead of time) to serve the first
+          start; default a new one. Restarts start a fresh process in it.
+        """
         self.cells = list(cells)
         # How the student numbers the cells (In [n]); by default, 1, 2, ...
         self.numbers = list(numbers) if numbers else list(range(1, len(self.cells) + 1))
@@ -214,6 +229,12 @@ class StudentRaised(StudentCallError):
     """The student's function raised: the text is shown for public tests only."""
 
     def __init__(self, label: str, error: str):
+        """**Arguments:**
+
+        - `label`: the function's name as shown (e.g. `` `f` ``).
+        - `error`: the exception's text from the student process; the message is
+          `"<label> raised <error>"`, the `short` attribute `"<label> raised an exception"`.
+        """
         super().__init__(f"{label} raised {error}")
         # Not even a built-in exception's name: the student picks which one is raised,
         # and ~6 bits per hidden call spell out its inputs.

@@ -167,19 +167,10 @@ def _optional_indexed(values, index, name, index_name, width, faces_shape):
 
 
 class Mesh(eqx.Module):
-    """A triangle mesh.
+    """A triangle mesh: vertex positions, triangles, and optional per-vertex colours,
+    texture coordinates, normals and a texture.
 
-    **Fields:**
-
-    - `vertices`: `(V, 3)` positions (floating, finite; fitted by `gfxlab.fit`).
-    - `faces`: `(F, 3)` integer vertex indices, counter-clockwise seen from outside
-      (integer, so held fixed by `gfxlab.fit`).
-    - `colors`: optional `(V, C)` per-vertex colours in [0, 1] (usually `C = 3`).
-    - `uvs`, `uv_faces`: optional texture coordinates `(T, 2)` (u right, v up, the
-      texture's lower-left corner at (0, 0)) and their per-corner indices `(F, 3)`.
-    - `normals`, `normal_faces`: optional normals `(N, 3)` and per-corner indices `(F, 3)`
-      (the renderer otherwise uses `vertex_normals`).
-    - `texture`: optional diffuse map `(Ht, Wt, C)` in [0, 1], row 0 at the top.
+    A pytree: its fields are the constructor's arguments, checked once at construction.
     """
 
     vertices: Float[Array, "V 3"]
@@ -203,6 +194,24 @@ class Mesh(eqx.Module):
         normal_faces=None,
         texture=None,
     ):
+        """**Arguments:**
+
+        - `vertices`: `(V, 3)` positions (floating, finite; fitted by `gfxlab.fit`).
+        - `faces`: `(F, 3)` integer vertex indices, counter-clockwise seen from outside
+          (integer, so held fixed by `gfxlab.fit`); each must index `vertices`.
+        - `colors`: optional `(V, C)` per-vertex colours in [0, 1] (usually `C = 3`,
+          `C` from 1 to 4; finite), stored in the dtype of `vertices`.
+        - `uvs`, `uv_faces`: optional texture coordinates `(T, 2)` (u right, v up, the
+          texture's lower-left corner at (0, 0)) and their per-corner indices `(F, 3)`;
+          given together or not at all.
+        - `normals`, `normal_faces`: optional normals `(N, 3)` and per-corner indices
+          `(F, 3)`, given together (the renderer otherwise uses `vertex_normals`).
+        - `texture`: optional diffuse map `(Ht, Wt, C)` in [0, 1], row 0 at the top; needs
+          `uvs` and `uv_faces`.
+
+        Bad shapes, dtypes or indices raise `TypeError`/`ValueError` naming the argument
+        (index checks also under `jax.jit`).
+        """
         vertices = as_float(vertices, "vertices")
         check_shape(vertices, "vertices", (None, 3))
         vertices = check_finite(vertices, "vertices")

@@ -28,12 +28,8 @@ _INT = jnp.int32
 class BeamPath(eqx.Module):
     """Where a CRT's electron beam is at each time step, and how bright it is.
 
-    - `positions`: `(T, 2)` beam position in pixel coordinates `(x, y)`, y up (finite,
-      `T >= 1`).
-    - `intensity`: `(T,)` beam intensity in `[0, 1]` (0 while blanked).
-    - `on`: `(T,)` booleans: whether the beam is switched on (off during retrace and moves).
-
-    Checked at construction (value checks through `equinox.error_if` when traced).
+    A pytree with the fields `positions`, `intensity` and `on`, the constructor's
+    arguments.
     """
 
     positions: Float[Array, "T 2"]
@@ -41,6 +37,17 @@ class BeamPath(eqx.Module):
     on: Bool[Array, " T"]
 
     def __init__(self, positions, intensity, on):
+        """**Arguments:**
+
+        - `positions`: `(T, 2)` beam position in pixel coordinates `(x, y)`, y up (finite,
+          `T >= 1`).
+        - `intensity`: `(T,)` beam intensity in `[0, 1]` (0 while blanked).
+        - `on`: `(T,)` booleans: whether the beam is switched on (off during retrace and
+          moves).
+
+        Checked here: shapes and dtypes raise `TypeError`/`ValueError` naming the argument;
+        the value checks (finite, in range) go through `equinox.error_if` when traced.
+        """
         positions = array_arg(positions, "positions", "beam positions (T, 2)")
         check_shape(positions, "positions", (None, 2))
         steps = positions.shape[0]

@@ -56,17 +56,11 @@ __all__ = [
 
 
 class VisibilityResult(eqx.Module):
-    """What the hidden-surface methods return.
+    """What the hidden-surface methods return: the image, the depth buffer, the work
+    counters and (for `warnock`) the quadtree.
 
-    **Fields:**
-
-    - `image`: `(H, W, C)` the rendered image.
-    - `depth`: `(H, W)` the depth buffer (`inf` where nothing is drawn), or `None` for
-      methods without one.
-    - `counters`: dict of integer scalars: `memory_bytes` (buffers the method keeps),
-      `depth_tests` (depth comparisons), `polygon_tests` (polygon-vs-polygon or
-      polygon-vs-area tests), and method-specific extras.
-    - `quadtree`: for `warnock`, one `(2^l, 2^l)` array of `WARNOCK_CODES` per level.
+    A pytree with the fields `image`, `depth`, `counters` and `quadtree`, the
+    constructor's arguments.
     """
 
     image: Float[Array, "H W C"]
@@ -81,6 +75,17 @@ class VisibilityResult(eqx.Module):
         counters: dict,
         quadtree: tuple | None = None,
     ):
+        """**Arguments:**
+
+        - `image`: `(H, W, C)` the rendered image, 1 to 4 channels, finite.
+        - `depth`: `(H, W)` the depth buffer (`inf` where nothing is drawn, no NaN), or
+          `None` for methods without one.
+        - `counters`: dict of integer scalars: `memory_bytes` (buffers the method keeps),
+          `depth_tests` (depth comparisons), `polygon_tests` (polygon-vs-polygon or
+          polygon-vs-area tests), and method-specific extras.
+        - `quadtree`: for `warnock`, a tuple with one `(2^l, 2^l)` array of
+          `WARNOCK_CODES` per level; default `None`.
+        """
         image = as_float(image, "image")
         check_shape(image, "image", (None, None, None))
         if not 1 <= image.shape[2] <= 4:

@@ -90,6 +90,9 @@ class Rendering(eqx.Module):
     attributes: Float[Array, "H W A"] | None
 
     def __check_init__(self):
+        """Check the buffers: each has `color`'s pixel shape `(H, W)` (and 3 channels for
+        `normal`, `position`, `barycentrics`), `face_index` is integer, and the floating
+        buffers are finite (checked when not traced)."""
         if not hasattr(self.color, "shape") or len(self.color.shape) < 3:
             raise ValueError(f"`color` must be an (H, W, C) array, got {self.color!r:.60}")
         pixels = tuple(self.color.shape[:-1])

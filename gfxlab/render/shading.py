@@ -51,6 +51,12 @@ class PointLight(eqx.Module):
     intensity: Float[Array, "*C"]
 
     def __init__(self, position, intensity=1.0):
+        """**Arguments:**
+
+        - `position`: the light's `(3,)` position in world space, finite.
+        - `intensity`: a scalar or a colour `(C,)`, finite and `>= 0`; default 1. The
+          irradiance at a point falls off as `intensity / distance**2`.
+        """
         position = as_float(position, "position")
         check_shape(position, "position", (3,))
         self.position = value_error_if(
@@ -73,6 +79,13 @@ class DirectionalLight(eqx.Module):
     intensity: Float[Array, "*C"]
 
     def __init__(self, direction, intensity=1.0):
+        """**Arguments:**
+
+        - `direction`: `(3,)` vector from the scene towards the light, finite and
+          non-zero (any length: it is normalized where used).
+        - `intensity`: a scalar or a colour `(C,)`, finite and `>= 0`; default 1 (the
+          same irradiance everywhere).
+        """
         direction = as_float(direction, "direction")
         check_shape(direction, "direction", (3,))
         length = safe_norm(direction)
