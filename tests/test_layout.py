@@ -83,3 +83,20 @@ def test_the_check_finds_an_oversized_module_and_function(tmp_path):
 if __name__ == "__main__":
     print("\n".join(oversized()) or "no module over 600 lines, no function over 80 lines")
     sys.exit(bool(oversized()))
+
+
+def test_every_public_module_has_an_api_page_in_the_navigation():
+    """Each `gfxlab.<module>` (and `gfxlab.labs`) has `docs/api/<module>.md`, listed in the
+    site's navigation, so the generated API overview (docs/_hooks.py) covers it."""
+    import gfxlab
+
+    root = PACKAGE.parent
+    navigation = (root / "mkdocs.yml").read_text(encoding="utf-8")
+    modules = [*gfxlab._SUBMODULES, "labs"]
+    missing = [
+        m for m in modules
+        if f"- api/{m}.md" not in navigation or not (root / "docs" / "api" / f"{m}.md").is_file()
+    ]  # fmt: skip
+    assert missing == []
+    pages = sorted(p.stem for p in (root / "docs" / "api").glob("*.md"))
+    assert pages == sorted(modules), "an API page for a module that is not public"
