@@ -78,6 +78,17 @@ CASES = [
     (lambda: jpeg.encode(np.full((4, 4), NAN)), ValueError, "`image`"),
     (lambda: jpeg.encode(np.zeros((4, 4)), quality=NAN), TypeError, "`quality`"),
     (lambda: jpeg.compress(np.full((8, 8), NAN), quality=50.0), ValueError, "`image`"),
+    # levels 0-255 instead of [0, 1]: an error, not a white picture
+    (
+        lambda: jpeg.compress(np.full((8, 8), 128.0), quality=50.0),
+        ValueError,
+        r"`image` must be in \[0, 1\]",
+    ),
+    (
+        lambda: jpeg.compress(np.full((8, 8), 128, np.uint8), quality=50.0),
+        TypeError,
+        "`image` must be a floating",
+    ),
     (lambda: jpeg.compress(np.zeros((8, 8)), quality=INF), ValueError, "`quality`"),
     (lambda: jpeg.exact_tables(NAN), ValueError, "`quality`"),
     (lambda: jpeg.psnr(np.array([NAN]), np.zeros(1)), ValueError, "`a`"),

@@ -15,6 +15,7 @@ import functools
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 from gfxlab._checks import check_range, check_shape, finite_float, value_error_if
@@ -110,7 +111,8 @@ def compress(
 
     **Arguments:**
 
-    - `image`: `(H, W, 3)` RGB or `(H, W)` grey, float in [0, 1].
+    - `image`: `(H, W, 3)` RGB or `(H, W)` grey, float in [0, 1] (an integer image is a
+      `TypeError`; values outside [0, 1] a `ValueError`, eagerly and under `jax.jit`).
     - `quality`: scalar in [1, 100] (may be traced).
     - `subsampling`: `"4:4:4"`, `"4:2:2"` or `"4:2:0"` (ignored for grey).
     - `rounding`: `"deadzone"`, `"ste"` or `"cubic"`.
@@ -119,7 +121,13 @@ def compress(
 
     The decoded image, same shape and dtype as `image`.
     """
-    image = finite_float(image, "image")
+    if not jnp.issubdtype(getattr(image, "dtype", np.float64), jnp.floating):
+        # uint8 levels would be read as values far above 1 and decoded as white
+        raise TypeError(
+            f"`image` must be a floating-point image in [0, 1], got dtype {image.dtype} "
+            "(divide uint8 levels by 255)"
+        )
+    image = check_range(finite_float(image, "image"), "image", minimum=0.0, maximum=1.0)
     if image.ndim == 3 and image.shape[-1] == 1:
         return compress(image[..., 0], quality=quality, subsampling=subsampling, rounding=rounding)[
             ..., None
