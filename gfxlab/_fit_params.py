@@ -1,4 +1,5 @@
-"""Which leaves `gfxlab.fit.fit` fits, and how bounded ones are reparametrised.
+"""Which leaves `gfxlab.fit.fit` fits, how bounded ones are reparametrised, and the
+clearer errors `fit` raises for JAX's own.
 
 Fixed leaves: a `fixed=` pytree prefix of bools or a callable on leaves, plus the
 protocol: an `eqx.Module` may define `fixed_fields(self) -> tuple[str, ...]` naming the
@@ -16,9 +17,51 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._checks import function_holds_tracer
+
 
 class FitError(ValueError):
     """The objective produced NaN/inf, or the fit was set up wrongly."""
+
+
+DRIVER_MESSAGE = (
+    "`fit` is a driver that runs compiled steps in a Python loop; call it outside "
+    "`jax.jit`, `jax.grad` and `jax.vmap` (to differentiate through a solve use "
+    "`optimistix.least_squares` or `optimistix.minimise`, which are traceable)"
+)
+
+# What JAX raises when the driver meets a value traced by an outer transformation that
+# `fn` captured (a closure over the traced variable, which `fit` cannot see beforehand).
+OUTER_TRACE_ERRORS = (
+    jax.errors.TracerArrayConversionError,
+    jax.errors.ConcretizationTypeError,
+    jax.errors.TracerBoolConversionError,
+    jax.errors.TracerIntegerConversionError,
+)
+
+
+def clearer_error(err: Exception, fn, method) -> Exception | None:
+    """The exception `fit` raises in place of JAX's `err`, or `None` to keep `err`.
+
+    - `fn` captured a value traced by an outer `jit`/`grad`/`vmap`: the driver
+      `TypeError` (a tracer error from `fn`'s own code keeps JAX's message).
+    - `fn` calls a function with a custom VJP (reverse mode only, such as
+      `gfxlab.render.render`) under a method that needs forward mode: a `FitError`
+      naming the methods that work.
+    """
+    if isinstance(err, OUTER_TRACE_ERRORS):
+        if function_holds_tracer(fn):
+            return TypeError(DRIVER_MESSAGE + f" ({type(err).__name__})")
+        return None
+    if "custom_vjp" in str(err) and "forward-mode" in str(err):
+        name = method if isinstance(method, str) or method is None else type(method).__name__
+        return FitError(
+            f"method {name or 'levenberg_marquardt'!r} differentiates `fn` in forward mode "
+            "(Jacobian-vector products), and `fn` calls a function that has only a reverse-mode "
+            "derivative (a custom VJP, such as gfxlab.render.render); use method='adam' or "
+            "'bfgs' (reverse mode), with a scalar loss or residuals"
+        )
+    return None
 
 
 # ------------------------------------------------------- fixed leaves and the protocol

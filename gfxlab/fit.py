@@ -57,8 +57,17 @@ import optax
 import optimistix as optx
 from jaxtyping import Array, Float, PyTree
 
-from ._checks import function_holds_tracer, is_traced, static_int
-from ._fit_params import FitError, bounded, fixed_mask, leaf_bounds, unbounded
+from ._checks import is_traced, static_int
+from ._fit_params import (
+    DRIVER_MESSAGE,
+    OUTER_TRACE_ERRORS,
+    FitError,
+    bounded,
+    clearer_error,
+    fixed_mask,
+    leaf_bounds,
+    unbounded,
+)
 
 __all__ = ["fit", "FitResult", "FitError", "METHODS", "MAX_STEPS"]
 
@@ -134,22 +143,6 @@ def _count(value, name: str, *, optional: bool = False) -> int | None:
         raise FitError(str(err)) from None
 
 
-_DRIVER_MESSAGE = (
-    "`fit` is a driver that runs compiled steps in a Python loop; call it outside "
-    "`jax.jit`, `jax.grad` and `jax.vmap` (to differentiate through a solve use "
-    "`optimistix.least_squares` or `optimistix.minimise`, which are traceable)"
-)
-
-# What JAX raises when the driver meets a value traced by an outer transformation that
-# `fn` captured (a closure over the traced variable, which `_check_call` cannot see).
-_OUTER_TRACE_ERRORS = (
-    jax.errors.TracerArrayConversionError,
-    jax.errors.ConcretizationTypeError,
-    jax.errors.TracerBoolConversionError,
-    jax.errors.TracerIntegerConversionError,
-)
-
-
 def _check_call(fn, params, args, method, progress) -> None:
     if not callable(fn):
         raise TypeError(
@@ -162,7 +155,7 @@ def _check_call(fn, params, args, method, progress) -> None:
     if not isinstance(progress, bool):
         raise TypeError(f"`progress` must be True or False, got {progress!r:.60}")
     if is_traced((params, args)):
-        raise TypeError(_DRIVER_MESSAGE)
+        raise TypeError(DRIVER_MESSAGE)
     if isinstance(method, str):
         if method not in METHODS:
             raise FitError(
@@ -531,7 +524,8 @@ def fit(
     - `args`: extra arguments passed to `fn` (data, targets), not fitted.
     - `method`: `"levenberg_marquardt"`, `"gauss_newton"`, `"bfgs"`, `"adam"`,
       `"gradient_descent"`, or a ready optimistix solver or optax transformation.
-      Default: Levenberg-Marquardt for residuals, BFGS for a scalar loss.
+      Default: Levenberg-Marquardt for residuals, BFGS for a scalar loss. The first two
+      need forward-mode derivatives: for `gfxlab.render`, use `"adam"` or `"bfgs"`.
     - `max_steps`: the most steps to take (1 to `MAX_STEPS`).
     - `learning_rate`: for `"adam"` and `"gradient_descent"`, > 0.
     - `rtol`, `atol`: convergence tolerances of the optimistix solvers, >= 0.
@@ -569,10 +563,11 @@ def fit(
             run, state, args, max_steps, min(chunk_size, max_steps), solver_test, name, bar
         )
         return _result(problem, z, state, loss_history, converged, name)
-    except _OUTER_TRACE_ERRORS as err:
-        if not function_holds_tracer(fn):
-            raise  # a mistake inside `fn` itself (e.g. `if p > 0:`), JAX's message says it
-        raise TypeError(_DRIVER_MESSAGE + f" ({type(err).__name__})") from err
+    except (*OUTER_TRACE_ERRORS, TypeError) as err:
+        clearer = clearer_error(err, fn, method)
+        if clearer is None:
+            raise  # e.g. a mistake inside `fn` itself: JAX's own message says it
+        raise clearer from err
 
 
 def _result(problem, z, state, loss_history, converged, name) -> FitResult:

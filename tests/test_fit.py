@@ -423,3 +423,18 @@ def test_start_is_returned_when_nothing_improves():
     assert result.best_step == 0
     np.testing.assert_array_equal(result.params, [1.0])
     assert result.final_loss > result.loss == 1.0
+
+
+def test_a_forward_mode_method_on_a_reverse_mode_only_function_is_a_clear_error():
+    """A `fn` with a custom VJP (like `gfxlab.render.render`) has no forward-mode
+    derivative: Levenberg-Marquardt names the methods that work, and BFGS fits it."""
+
+    @jax.custom_vjp
+    def wave(x):
+        return jnp.sin(x)
+
+    wave.defvjp(lambda x: (jnp.sin(x), x), lambda x, g: (g * jnp.cos(x),))
+    with pytest.raises(FitError, match="forward mode.*'adam' or 'bfgs'"):
+        fit(lambda p: wave(p) - 0.5, jnp.zeros(2))
+    result = fit(lambda p: jnp.sum((wave(p) - 0.5) ** 2), jnp.zeros(2), method="bfgs")
+    np.testing.assert_allclose(result.params, np.arcsin(0.5), atol=1e-6)
