@@ -255,6 +255,21 @@ def test_cli_lists_prints_and_writes_markdown(tmp_path, capsys):
     assert code == 0 and "\\begin{pmatrix}" in markdown.read_text()
     code, _, err = run("Q7a")
     assert code == 2 and "no question" in err
+    # a student's mistakes: a clear message and status 2, never a traceback
+    code, out, _ = run()
+    assert code == 0 and "Q1b" in out and "(--set radius)" in out  # the options are listed
+    for args, message in [
+        (("Q1b", "--set", "radius=-3"), "bad option for Q1b: `radius` must be >= 0"),
+        (("Q1b", "--set", "radius=100000"), "bad option for Q1b: `radius` must be <="),
+        (("Q1b", "--set", "foo=1"), "Q1b has no option 'foo' (its options: radius)"),
+        (("all", "--set", "radius=5"), "--set applies to one question"),
+        (("Q2b", "--markdown", str(tmp_path / "no dir" / "q 2b.md")), "cannot write"),
+    ]:
+        code, _, err = run(*args)
+        assert code == 2 and message in err, (args, err)
+    with pytest.raises(SystemExit) as exit_info:  # argparse: usage and status 2
+        run("--set", "radius=3")
+    assert exit_info.value.code == 2 and "--set needs a question id" in capsys.readouterr().err
 
 
 @pytest.fixture
