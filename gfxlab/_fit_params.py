@@ -48,11 +48,21 @@ def clearer_error(err: Exception, fn, method) -> Exception | None:
     - `fn` calls a function with a custom VJP (reverse mode only, such as
       `gfxlab.render.render`) under a method that needs forward mode: a `FitError`
       naming the methods that work.
+    - residuals of another float dtype than `params` under a least-squares method
+      (lineax cannot mix them): a `FitError` saying so.
     """
     if isinstance(err, OUTER_TRACE_ERRORS):
         if function_holds_tracer(fn):
             return TypeError(DRIVER_MESSAGE + f" ({type(err).__name__})")
         return None
+    if isinstance(err, FitError):
+        return None
+    if "Vector and operator structures do not match" in str(err):  # lineax, mixed dtypes
+        return FitError(
+            "`fn`'s residuals and `params` have different float dtypes (e.g. float64 data in "
+            "`args` with float32 `params`): a least-squares method needs one dtype; convert "
+            "`params` or the data"
+        )
     if "custom_vjp" in str(err) and "forward-mode" in str(err):
         name = method if isinstance(method, str) or method is None else type(method).__name__
         return FitError(

@@ -260,6 +260,9 @@ def _describe(problem, z, args):
         raise FitError(
             "`fn` must return an array (residuals or a scalar loss) or a pytree of arrays"
         )
+    if not all(jnp.issubdtype(v.dtype, jnp.inexact) for v in out_leaves):
+        kinds = sorted({str(v.dtype) for v in out_leaves})
+        raise FitError(f"`fn` must return floating-point residuals or a loss, got {kinds}")
     answer = (len(out_leaves) == 1 and out_leaves[0].shape == ()), out
     if key is not None:
         if len(_DESCRIBED) >= 256:
@@ -563,7 +566,7 @@ def fit(
             run, state, args, max_steps, min(chunk_size, max_steps), solver_test, name, bar
         )
         return _result(problem, z, state, loss_history, converged, name)
-    except (*OUTER_TRACE_ERRORS, TypeError) as err:
+    except (*OUTER_TRACE_ERRORS, TypeError, ValueError) as err:
         clearer = clearer_error(err, fn, method)
         if clearer is None:
             raise  # e.g. a mistake inside `fn` itself: JAX's own message says it

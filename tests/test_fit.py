@@ -438,3 +438,13 @@ def test_a_forward_mode_method_on_a_reverse_mode_only_function_is_a_clear_error(
         fit(lambda p: wave(p) - 0.5, jnp.zeros(2))
     result = fit(lambda p: jnp.sum((wave(p) - 0.5) ** 2), jnp.zeros(2), method="bfgs")
     np.testing.assert_allclose(result.params, np.arcsin(0.5), atol=1e-6)
+
+
+def test_integer_outputs_and_mixed_float_dtypes_are_clear_errors():
+    with pytest.raises(FitError, match="`fn` must return floating-point residuals"):
+        fit(lambda p: jnp.array([1, 2]), jnp.array(0.0))
+    # float32 parameters against float64 data (x64 on): Levenberg-Marquardt cannot mix them
+    with pytest.raises(FitError, match="different float dtypes"):
+        fit(lambda p, y: p - y, jnp.zeros(3, jnp.float32), args=(jnp.ones(3),))
+    result = fit(lambda p, y: p - y, jnp.zeros(3), args=(jnp.ones(3),))  # one dtype: fine
+    np.testing.assert_allclose(result.params, 1.0)
