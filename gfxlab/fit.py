@@ -46,6 +46,7 @@ from __future__ import annotations
 import functools
 import math
 import time
+import warnings
 from collections.abc import Callable
 from typing import Any
 
@@ -540,7 +541,8 @@ def fit(
     - `fixed`: leaves to hold fixed (a pytree prefix of `params` of booleans, or a
       callable `leaf -> bool`), besides the `fixed_fields` protocol.
 
-    **Returns:** a `FitResult` with the best `params` seen and the `loss_history`.
+    **Returns:** a `FitResult` with the best `params` seen and the `loss_history` (and a
+    `RuntimeWarning` when every step was worse than the start, which is then returned).
 
     **Raises:** `FitError` (a `ValueError`) when the objective returns NaN or inf
     (naming the step), for a scalar loss given to a least-squares method, and for
@@ -579,6 +581,14 @@ def _result(problem, z, state, loss_history, converged, name) -> FitResult:
     best_step = int(best_step) if np.isfinite(float(best_loss)) else 0
     if float(loss_history[0]) <= loss_history[best_step]:
         best_z, best_step = z, 0  # the start is as good as anything seen
+    if len(loss_history) > 1 and np.min(loss_history[1:]) > loss_history[0] * (1 + 1e-6):
+        warnings.warn(
+            f"fit ({name}): every step made the loss worse than at the start "
+            f"({float(loss_history[0]):.4g}); the start is returned. Try a smaller learning "
+            "rate, or hold parameters that should not move fixed (`fixed=`)",
+            RuntimeWarning,
+            stacklevel=3,
+        )
     return FitResult(
         params=problem.params(best_z),
         loss_history=jnp.asarray(loss_history),

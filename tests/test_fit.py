@@ -413,13 +413,14 @@ def test_best_iterate_is_returned_when_the_fit_overshoots():
 
 
 def test_start_is_returned_when_nothing_improves():
-    result = fit(
-        lambda p: jnp.sum(p**2),
-        jnp.array([1.0]),
-        method="gradient_descent",
-        learning_rate=1.5,
-        max_steps=5,
-    )  # each step doubles |p|
+    with pytest.warns(RuntimeWarning, match="every step made the loss worse"):
+        result = fit(
+            lambda p: jnp.sum(p**2),
+            jnp.array([1.0]),
+            method="gradient_descent",
+            learning_rate=1.5,
+            max_steps=5,
+        )  # each step doubles |p|
     assert result.best_step == 0
     np.testing.assert_array_equal(result.params, [1.0])
     assert result.final_loss > result.loss == 1.0
