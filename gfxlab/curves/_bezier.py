@@ -70,8 +70,9 @@ def bernstein(n: int, u: Float[ArrayLike, "*U"]) -> Float[Array, "*U n+1"]:
 
     **Returns:** `(*u.shape, n+1)`; each row sums to one.
 
-    **Raises:** `TypeError` for a non-int `n` or a `None`/non-numeric `u`; `ValueError`
-    for `u` outside `[0, 1]` or NaN (eagerly, and through `equinox.error_if` under jit).
+    **Raises:** `TypeError` for an `n` that is not a whole number (3 and 3.0 are
+    accepted) or a `None`/non-numeric `u`; `ValueError` for `u` outside `[0, 1]` or NaN
+    (eagerly, and through `equinox.error_if` under jit).
     """
     n = static_int(n, "n", minimum=0, maximum=MAX_DEGREE)
     u = _check_unit_interval(as_float(u, "u"))

@@ -94,7 +94,8 @@ def parameter_range(
     (`n = m - p` control points): where the basis functions sum to one.
 
     **Raises:** `ValueError` for knots that are not finite and non-decreasing, or that
-    leave an empty range (`t_p = t_n`); `TypeError` for `None` or a non-int degree.
+    leave an empty range (`t_p = t_n`); `TypeError` for `None` or a degree that is not a whole
+    number (2 and 2.0 are accepted).
     """
     knots = as_float(knots, "knots")
     check_shape(knots, "knots", (None,))

@@ -82,7 +82,7 @@ def patch_mesh(control_nets: Float[ArrayLike, "P m+1 n+1 3"], resolution: int) -
     Each triangle winds counter-clockwise about `dS/du x dS/dv`.
 
     **Raises:** `ValueError` for a bad shape, a non-finite net or a resolution out of
-    range; `TypeError` for a non-int resolution or a `None` net.
+    range; `TypeError` for a resolution that is not a whole number or a `None` net.
     """
     nets = as_float(control_nets, "control_nets")
     if nets.ndim == 3:
