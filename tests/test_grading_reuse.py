@@ -114,6 +114,23 @@ def test_static_plan_of_the_cheats():
     assert verdicts["de_casteljau"].closure == {"bezier_point"}
 
 
+def test_cells_too_deep_for_the_parser_are_hatches_not_crashes():
+    """`1+1+...+1`, `x.a.a...`, `f()()...` 3000 deep: Python's `ast.parse` raises
+    RecursionError; the rule cannot be checked (0 points for it), nothing crashes."""
+    honest = ["import jax.numpy as jnp", BERNSTEIN.replace("_bern", "bezier_point"), DE_CASTELJAU]
+    for deep in (
+        "_z = " + "+".join(["1"] * 3000),
+        "_t = (1)" + ".real" * 3000,
+        "_u = de_casteljau" + "()" * 3000,
+        "_v = " + "-" * 150 + "1",  # parses, but too deep to rewrite for the second sandbox
+    ):
+        verdicts = reuse.plan([*honest, deep], RULES)
+        assert [v.hatch for v in verdicts] == ["a cell nested too deeply to be checked"] * 2
+        assert reuse.plan([*honest, deep], {}) == []  # no rule: nothing to check
+        assert reuse.check_cells([*honest, deep], {"bezier_point"}, "t")[-2] == deep
+    assert not any(v.hatch for v in reuse.plan([*honest, "_z = " + "+".join("1" * 50)], RULES))
+
+
 def test_check_cells_remove_the_forbidden_code():
     cells = ["import jax.numpy as jnp", CHEATS["container"]]
     closure = reuse.plan(cells, RULES)[0].closure

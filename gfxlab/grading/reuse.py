@@ -72,14 +72,28 @@ class Verdict:
     dynamic: bool = False  # the names are used elsewhere: run the second sandbox
 
 
-def _units(cells) -> list[ast.stmt]:
-    out = []
-    for source in cells:
-        try:
-            out.extend(ast.parse(source).body)
-        except (SyntaxError, ValueError):  # the cell fails in the sandbox anyway
-            continue
-    return out
+# Deeper syntax trees are not analysed (`ast.unparse` and Python's own AST construction
+# recurse): the cell still runs, but a question with a `separate` rule scores 0.
+MAX_DEPTH = 100
+_TOO_DEEP = "a cell nested too deeply to be checked"
+
+
+def _parse(source: str) -> list[ast.stmt] | None:
+    """The statements of a cell; [] for a cell that fails in the sandbox too (syntax
+    error, NUL byte); None for one this analysis cannot see (too deep for it)."""
+    try:
+        body = ast.parse(source).body
+    except (SyntaxError, ValueError):  # the cell fails in the sandbox anyway
+        return []
+    except (RecursionError, MemoryError):  # Python may still run it
+        return None
+    stack = [(node, 1) for node in body]
+    while stack:
+        node, depth = stack.pop()
+        if depth > MAX_DEPTH:
+            return None
+        stack.extend((child, depth + 1) for child in ast.iter_child_nodes(node))
+    return body
 
 
 _SCOPES = (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef, ast.Lambda)
@@ -230,8 +244,12 @@ def _locals(node) -> set[str]:
 
 def plan(cells, rules: dict) -> list[Verdict]:
     """The static step for every rule `function -> [forbidden names]`."""
-    units = _units(cells)
-    hatch = next((h for h in map(_hatch, units) if h), None) or _foreign_import(units)
+    if not rules:
+        return []
+    parsed = [_parse(source) for source in cells]
+    units = [u for body in parsed for u in body or []]
+    deep = _TOO_DEEP if any(body is None for body in parsed) else None
+    hatch = deep or next((h for h in map(_hatch, units) if h), None) or _foreign_import(units)
     verdicts = []
     for function, forbidden in rules.items():
         verdict = Verdict(function, tuple(forbidden))
@@ -264,9 +282,8 @@ def check_cells(cells, closure, token: str) -> list[str]:
         "    return unavailable\n"
     ]
     for source in cells:
-        try:
-            body = ast.parse(source).body
-        except (SyntaxError, ValueError):
+        body = _parse(source)
+        if not body:  # fails in the sandbox too (a too-deep cell is a hatch: never here)
             out.append(source)
             continue
         new = []

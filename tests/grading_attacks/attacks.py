@@ -543,6 +543,22 @@ def midpoint_circle_trace(r):
 """,
 }
 
+# Cells nested deeper than the grader's own parser goes (Python may still run them): the
+# grader must not break, the rest of the notebook is graded.
+ATTACKS["deep_expression"] = (
+    "_z = " + "+".join(["1"] * 3000) + "\n# %% cell\n"
+    "_t = (1)" + ".real" * 3000 + "\n# %% cell\n"
+    "def _again():\n    return _again\n\n\n_u = _again" + "()" * 3000 + "\n# %% cell\n"
+    "def midpoint_circle_trace(r):\n    return None\n"
+)
+# Exception text that no encoding can print (a lone surrogate): shown escaped.
+ATTACKS["surrogate_text"] = """
+raise ValueError("cell text \\ud800 \\udcff end")
+# %% cell
+def midpoint_circle_trace(r):
+    raise ValueError("call text \\ud800 end")
+"""
+
 # Attacks that replace no function: q1 is left unsolved instead.
 TOPLEVEL = {"toplevel_loop"}
 # Attacks that only get their honest part: q1 solved (the writer) -> full marks.
