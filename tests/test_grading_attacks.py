@@ -326,6 +326,7 @@ def test_every_attack_scores_only_its_honest_part(graded):
     # memfd_create is refused by the seccomp filter: no memory outside every limit.
     assert "MEMFD 0 MB" in feedback["memfd_hoard"], feedback["memfd_hoard"]
     assert "`skimage` is not allowed in this assignment" in json.dumps(results["forbidden_library"])
+    assert "NATIVE []" in feedback["native_code"], feedback["native_code"]
     assert "the reply" in feedback["hash_bomb"] or "dict keys" in feedback["hash_bomb"], feedback[
         "hash_bomb"
     ]

@@ -115,9 +115,8 @@ def _bound(stmt: ast.stmt) -> set[str]:
             node, in_comp = stack.pop()
             if isinstance(node, ast.NamedExpr) and isinstance(node.target, ast.Name):
                 names.add(node.target.id)
-            elif isinstance(node, ast.Name) and isinstance(node.ctx, (ast.Store, ast.Del)):
-                if not in_comp:
-                    names.add(node.id)
+            elif _stored(node) and not in_comp:
+                names.add(_stored(node))
             elif isinstance(node, (ast.MatchAs, ast.MatchStar)) and node.name:
                 names.add(node.name)
             elif isinstance(node, ast.MatchMapping) and node.rest:
@@ -134,6 +133,58 @@ def _bound(stmt: ast.stmt) -> set[str]:
         if isinstance(node, (ast.Global, ast.Nonlocal)):
             names.update(node.names)
     return names
+
+
+def _stored(node) -> str | None:
+    """The name a store or delete target binds: `x`, and `np` of `np.helper = f` or
+    `TABLE[k] = f` (which change the object `np`, or `TABLE`)."""
+    if not isinstance(getattr(node, "ctx", None), (ast.Store, ast.Del)):
+        return None
+    if isinstance(node, ast.Name):
+        return node.id
+    return _root(node) if isinstance(node, (ast.Attribute, ast.Subscript)) else None
+
+
+def _root(node) -> str | None:
+    """`a` of `a.b[c].d`, or None when the chain does not start at a name."""
+    while isinstance(node, (ast.Attribute, ast.Subscript)):
+        node = node.value
+    return node.id if isinstance(node, ast.Name) else None
+
+
+def _module_alias(stmt: ast.stmt, modules) -> bool:
+    """`jnp = jax.numpy`: a name for (part of) an imported module, like an import."""
+    if not isinstance(stmt, ast.Assign) or len(stmt.targets) != 1:
+        return False
+    if not isinstance(stmt.targets[0], ast.Name) or not isinstance(
+        stmt.value, (ast.Name, ast.Attribute)
+    ):
+        return False
+    node = stmt.value
+    while isinstance(node, ast.Attribute):
+        node = node.value
+    return isinstance(node, ast.Name) and node.id in modules
+
+
+def _imports(units) -> tuple[set[str], list[ast.stmt]]:
+    """Names bound only by imports and module aliases (never changed by the notebook),
+    and the alias statements."""
+    imported = {n for u in units if isinstance(u, (ast.Import, ast.ImportFrom)) for n in _bound(u)}
+    others = [u for u in units if not isinstance(u, (ast.Import, ast.ImportFrom))]
+    aliases: list[ast.stmt] = []
+    while True:
+        rest = [u for u in others if not any(u is a for a in aliases)]
+        modules = imported - {n for u in rest for n in _bound(u)}
+        new = [u for u in rest if _module_alias(u, modules)]
+        if not new:
+            return modules, aliases
+        for u in new:  # an alias counts only if nothing else binds its name
+            rebound = {n for v in rest if v is not u for n in _bound(v)}
+            if not (_bound(u) & rebound):
+                aliases.append(u)
+                imported |= _bound(u)
+        if not any(any(u is a for a in aliases) for u in new):
+            return modules, aliases
 
 
 def _loaded(stmt: ast.stmt) -> set[str]:
@@ -173,10 +224,10 @@ def forbidden_closure(units, forbidden, function) -> frozenset:
     """The names `forbidden` stand for: every name bound by a statement that binds one,
     and the notebook's functions and values such statements use (not imports, and not
     `function` itself when only used: the forbidden code may use the graded one)."""
-    imports = {n for u in units if isinstance(u, (ast.Import, ast.ImportFrom)) for n in _bound(u)}
+    imports, aliases = _imports(units)
     bound_by = {}
     for u in units:
-        if not isinstance(u, (ast.Import, ast.ImportFrom)):
+        if not isinstance(u, (ast.Import, ast.ImportFrom)) and not any(u is a for a in aliases):
             for name in _bound(u):
                 bound_by.setdefault(name, []).append(u)
     closure, todo = set(), list(forbidden)
