@@ -579,7 +579,7 @@ import numpy
 
 def _probe():
     found = []
-    for name in ("ctypes", "_ctypes", "cffi", "_cffi_backend", "numpy.ctypeslib"):
+    for name in ("ctypes", "_ctypes", "cffi", "_cffi_backend"):
         try:
             __import__(name)
             found.append(name)
