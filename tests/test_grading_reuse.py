@@ -114,6 +114,49 @@ def test_static_plan_of_the_cheats():
     assert verdicts["de_casteljau"].closure == {"bezier_point"}
 
 
+def test_cells_too_deep_for_the_parser_are_hatches_not_crashes():
+    """`1+1+...+1`, `x.a.a...`, `f()()...` 3000 deep: Python's `ast.parse` raises
+    RecursionError; the rule cannot be checked (0 points for it), nothing crashes."""
+    honest = ["import jax.numpy as jnp", BERNSTEIN.replace("_bern", "bezier_point"), DE_CASTELJAU]
+    for deep in (
+        "_z = " + "+".join(["1"] * 3000),
+        "_t = (1)" + ".real" * 3000,
+        "_u = de_casteljau" + "()" * 3000,
+        "_v = " + "-" * 150 + "1",  # parses, but too deep to rewrite for the second sandbox
+    ):
+        verdicts = reuse.plan([*honest, deep], RULES)
+        assert [v.hatch for v in verdicts] == ["a cell nested too deeply to be checked"] * 2
+        assert reuse.plan([*honest, deep], {}) == []  # no rule: nothing to check
+        assert reuse.check_cells([*honest, deep], {"bezier_point"}, "t")[-2] == deep
+    assert not any(v.hatch for v in reuse.plan([*honest, "_z = " + "+".join("1" * 50)], RULES))
+
+
+def test_module_aliases_are_imports_and_writes_to_modules_bind_them():
+    """`jnp = jax.numpy` is an import (an honest notebook keeps every mark); a helper
+    stored on a module (`np.bernstein_eval = general`) is shared through it."""
+    aliased = [
+        "import jax\njnp = jax.numpy",
+        BERNSTEIN.replace("_bern", "bezier_point"),
+        DE_CASTELJAU,
+    ]
+    assert not any(v.dynamic or v.hatch for v in reuse.plan(aliased, RULES))
+    # An alias of a name the notebook rebinds is not an import.
+    rebound = [*aliased, "jax = None"]
+    assert all("jnp" in v.closure for v in reuse.plan(rebound, RULES))
+    stored = [
+        "import jax.numpy as jnp\nimport numpy as np",
+        BERNSTEIN.replace("_bern", "general"),
+        "np.bernstein_eval = general",
+        "def bezier_point(control, u):\n    return np.bernstein_eval(control, u)",
+        "def de_casteljau(control, u):\n    return np.bernstein_eval(control, u)",
+    ]
+    verdicts = {v.function: v for v in reuse.plan(stored, RULES)}
+    assert verdicts["de_casteljau"].dynamic
+    assert verdicts["de_casteljau"].closure >= {"bezier_point", "np", "general"}
+    checked = "\n".join(reuse.check_cells(stored, verdicts["de_casteljau"].closure, "t"))
+    assert "w @ control" not in checked and "np = _gx_unavailable_t('np')" in checked
+
+
 def test_check_cells_remove_the_forbidden_code():
     cells = ["import jax.numpy as jnp", CHEATS["container"]]
     closure = reuse.plan(cells, RULES)[0].closure

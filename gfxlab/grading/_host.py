@@ -8,7 +8,9 @@ when there is no cgroup (`_tree_usage`, `_tasks_of`).
 
 from __future__ import annotations
 
+import functools
 import importlib.machinery
+import importlib.metadata
 import os
 import pathlib
 import shutil
@@ -220,10 +222,18 @@ def _locate(name: str):
 _GFXLAB_KEPT = {"grading", "_resources", "__init__"}  # `check_array` for public tests
 
 
+# Foreign-function interfaces run any native library (a forbidden package's own, or the
+# system's libjpeg): never importable in a student process. `cffi` is not needed by the
+# allowed libraries and is stubbed out; JAX imports `ctypes` itself (`jax._src.ffi`), so
+# the worker's import hook refuses `ctypes` to every importer but JAX (`_worker._NativeGate`).
+ALWAYS_FORBIDDEN = ("cffi", "_cffi_backend")
+
+
 def expand_forbidden(modules) -> list[str]:
     """`gfxlab` stands for every gfxlab module but `gfxlab.grading` (whose `checks` the
-    public tests import) and what `import gfxlab` itself needs."""
-    out = []
+    public tests import) and what `import gfxlab` itself needs; `ALWAYS_FORBIDDEN` is
+    added to any list."""
+    out = list(ALWAYS_FORBIDDEN)
     for module in modules:
         if module != "gfxlab":
             out.append(module)
@@ -246,6 +256,8 @@ def forbidden_files(modules) -> list[tuple[str, bool]]:
         spec = _locate(str(module))
         if spec is None or not spec.origin or not os.path.exists(spec.origin):
             continue
+        if "." not in str(module):  # the native libraries its wheel ships (`shapely.libs`)
+            out.extend((libs, True) for libs in _wheel_libs(str(module), spec))
         if spec.submodule_search_locations:
             for location in spec.submodule_search_locations:
                 out.append((os.path.realpath(location), True))
@@ -255,6 +267,30 @@ def forbidden_files(modules) -> list[tuple[str, bool]]:
         for pyc in (origin.parent / "__pycache__").glob(f"{origin.stem}.*.pyc"):
             out.append((str(pyc), False))
     return out
+
+
+@functools.cache
+def _distributions() -> dict:
+    try:
+        return importlib.metadata.packages_distributions()
+    except Exception:  # broken metadata: the module's own name still counts
+        return {}
+
+
+def _wheel_libs(top: str, spec) -> list[str]:
+    """`<distribution>.libs` folders (auditwheel's bundled shared libraries) next to the
+    top-level module `top`, for every distribution that provides it."""
+    names = {top, *_distributions().get(top, [])}
+    where = pathlib.Path(os.path.realpath(spec.origin)).parent
+    if spec.submodule_search_locations:
+        where = where.parent
+    out = []
+    for name in names:
+        for variant in {name, name.replace("-", "_"), name.replace("-", "_").lower()}:
+            libs = where / f"{variant}.libs"
+            if libs.is_dir():
+                out.append(str(libs.resolve()))
+    return sorted(set(out))
 
 
 _MEMORY_POLL = 0.25

@@ -209,8 +209,21 @@ def _gradescope(argv) -> int:
     return run(*[pathlib.Path(a) for a in argv])
 
 
+def _safe_streams() -> None:
+    """Print any text (student exception messages may hold lone surrogates or characters the
+    terminal's encoding lacks) as escapes instead of failing with `UnicodeEncodeError`."""
+    for stream in (sys.stdout, sys.stderr):
+        reconfigure = getattr(stream, "reconfigure", None)
+        if reconfigure is not None:
+            try:
+                reconfigure(errors="backslashreplace")
+            except (ValueError, OSError):  # a detached or closed stream: leave it
+                pass
+
+
 def main(command: str, argv: list[str]) -> int:
     """Entry point used by `python -m gfxlab` (`command` is assign, check or grade)."""
+    _safe_streams()
     handlers = {"assign": _assign, "check": _check, "grade": _grade, "gradescope": _gradescope}
     if command not in handlers:
         print(f"unknown grading command {command!r}", file=sys.stderr)

@@ -330,6 +330,8 @@ def safe_names(paths) -> list[str]:
 def csv_cell(text) -> str:
     """A spreadsheet-safe cell: no formula (`=`, `+`, `-`, `@`, tab, CR), bounded."""
     text = _bounded(str(text), 500).replace("\n", " ")
+    # Lone surrogates (a student's exception text) cannot be written as UTF-8: escaped.
+    text = text.encode("utf-8", "backslashreplace").decode("utf-8")
     return "'" + text if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
 
 
@@ -465,7 +467,7 @@ def grade_many(submissions, autograder_dir, out_dir, *, jobs=None, limits=None):
     out_dir.mkdir(parents=True, exist_ok=True)
     names = [q.name for q in grader.questions]
     maximum = sum(q.points for q in grader.questions)
-    with open(out_dir / "summary.csv", "w", newline="") as f:
+    with open(out_dir / "summary.csv", "w", newline="", encoding="utf-8") as f:
         writer = csv.writer(f)
         writer.writerow(
             ["submission", "folder", *names, "total", "max", "seconds", "grading_error", "notes"]

@@ -72,14 +72,28 @@ class Verdict:
     dynamic: bool = False  # the names are used elsewhere: run the second sandbox
 
 
-def _units(cells) -> list[ast.stmt]:
-    out = []
-    for source in cells:
-        try:
-            out.extend(ast.parse(source).body)
-        except (SyntaxError, ValueError):  # the cell fails in the sandbox anyway
-            continue
-    return out
+# Deeper syntax trees are not analysed (`ast.unparse` and Python's own AST construction
+# recurse): the cell still runs, but a question with a `separate` rule scores 0.
+MAX_DEPTH = 100
+_TOO_DEEP = "a cell nested too deeply to be checked"
+
+
+def _parse(source: str) -> list[ast.stmt] | None:
+    """The statements of a cell; [] for a cell that fails in the sandbox too (syntax
+    error, NUL byte); None for one this analysis cannot see (too deep for it)."""
+    try:
+        body = ast.parse(source).body
+    except (SyntaxError, ValueError):  # the cell fails in the sandbox anyway
+        return []
+    except (RecursionError, MemoryError):  # Python may still run it
+        return None
+    stack = [(node, 1) for node in body]
+    while stack:
+        node, depth = stack.pop()
+        if depth > MAX_DEPTH:
+            return None
+        stack.extend((child, depth + 1) for child in ast.iter_child_nodes(node))
+    return body
 
 
 _SCOPES = (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef, ast.Lambda)
@@ -101,9 +115,8 @@ def _bound(stmt: ast.stmt) -> set[str]:
             node, in_comp = stack.pop()
             if isinstance(node, ast.NamedExpr) and isinstance(node.target, ast.Name):
                 names.add(node.target.id)
-            elif isinstance(node, ast.Name) and isinstance(node.ctx, (ast.Store, ast.Del)):
-                if not in_comp:
-                    names.add(node.id)
+            elif _stored(node) and not in_comp:
+                names.add(_stored(node))
             elif isinstance(node, (ast.MatchAs, ast.MatchStar)) and node.name:
                 names.add(node.name)
             elif isinstance(node, ast.MatchMapping) and node.rest:
@@ -120,6 +133,58 @@ def _bound(stmt: ast.stmt) -> set[str]:
         if isinstance(node, (ast.Global, ast.Nonlocal)):
             names.update(node.names)
     return names
+
+
+def _stored(node) -> str | None:
+    """The name a store or delete target binds: `x`, and `np` of `np.helper = f` or
+    `TABLE[k] = f` (which change the object `np`, or `TABLE`)."""
+    if not isinstance(getattr(node, "ctx", None), (ast.Store, ast.Del)):
+        return None
+    if isinstance(node, ast.Name):
+        return node.id
+    return _root(node) if isinstance(node, (ast.Attribute, ast.Subscript)) else None
+
+
+def _root(node) -> str | None:
+    """`a` of `a.b[c].d`, or None when the chain does not start at a name."""
+    while isinstance(node, (ast.Attribute, ast.Subscript)):
+        node = node.value
+    return node.id if isinstance(node, ast.Name) else None
+
+
+def _module_alias(stmt: ast.stmt, modules) -> bool:
+    """`jnp = jax.numpy`: a name for (part of) an imported module, like an import."""
+    if not isinstance(stmt, ast.Assign) or len(stmt.targets) != 1:
+        return False
+    if not isinstance(stmt.targets[0], ast.Name) or not isinstance(
+        stmt.value, (ast.Name, ast.Attribute)
+    ):
+        return False
+    node = stmt.value
+    while isinstance(node, ast.Attribute):
+        node = node.value
+    return isinstance(node, ast.Name) and node.id in modules
+
+
+def _imports(units) -> tuple[set[str], list[ast.stmt]]:
+    """Names bound only by imports and module aliases (never changed by the notebook),
+    and the alias statements."""
+    imported = {n for u in units if isinstance(u, (ast.Import, ast.ImportFrom)) for n in _bound(u)}
+    others = [u for u in units if not isinstance(u, (ast.Import, ast.ImportFrom))]
+    aliases: list[ast.stmt] = []
+    while True:
+        rest = [u for u in others if not any(u is a for a in aliases)]
+        modules = imported - {n for u in rest for n in _bound(u)}
+        new = [u for u in rest if _module_alias(u, modules)]
+        if not new:
+            return modules, aliases
+        for u in new:  # an alias counts only if nothing else binds its name
+            rebound = {n for v in rest if v is not u for n in _bound(v)}
+            if not (_bound(u) & rebound):
+                aliases.append(u)
+                imported |= _bound(u)
+        if not any(any(u is a for a in aliases) for u in new):
+            return modules, aliases
 
 
 def _loaded(stmt: ast.stmt) -> set[str]:
@@ -159,10 +224,10 @@ def forbidden_closure(units, forbidden, function) -> frozenset:
     """The names `forbidden` stand for: every name bound by a statement that binds one,
     and the notebook's functions and values such statements use (not imports, and not
     `function` itself when only used: the forbidden code may use the graded one)."""
-    imports = {n for u in units if isinstance(u, (ast.Import, ast.ImportFrom)) for n in _bound(u)}
+    imports, aliases = _imports(units)
     bound_by = {}
     for u in units:
-        if not isinstance(u, (ast.Import, ast.ImportFrom)):
+        if not isinstance(u, (ast.Import, ast.ImportFrom)) and not any(u is a for a in aliases):
             for name in _bound(u):
                 bound_by.setdefault(name, []).append(u)
     closure, todo = set(), list(forbidden)
@@ -230,8 +295,12 @@ def _locals(node) -> set[str]:
 
 def plan(cells, rules: dict) -> list[Verdict]:
     """The static step for every rule `function -> [forbidden names]`."""
-    units = _units(cells)
-    hatch = next((h for h in map(_hatch, units) if h), None) or _foreign_import(units)
+    if not rules:
+        return []
+    parsed = [_parse(source) for source in cells]
+    units = [u for body in parsed for u in body or []]
+    deep = _TOO_DEEP if any(body is None for body in parsed) else None
+    hatch = deep or next((h for h in map(_hatch, units) if h), None) or _foreign_import(units)
     verdicts = []
     for function, forbidden in rules.items():
         verdict = Verdict(function, tuple(forbidden))
@@ -264,9 +333,8 @@ def check_cells(cells, closure, token: str) -> list[str]:
         "    return unavailable\n"
     ]
     for source in cells:
-        try:
-            body = ast.parse(source).body
-        except (SyntaxError, ValueError):
+        body = _parse(source)
+        if not body:  # fails in the sandbox too (a too-deep cell is a hatch: never here)
             out.append(source)
             continue
         new = []

@@ -244,9 +244,13 @@ def midpoint_circle_trace(r):
 """,
     # Leave code for the next student in shared places (SysV shm, /dev/shm, /tmp, ...).
     "ipc_1_writer": """
-import ctypes
 import json
 import os
+
+try:
+    import ctypes
+except ImportError:  # refused in the sandbox (native code): the shared memory part fails
+    ctypes = None
 
 for place in ("/dev/shm", "/tmp", "/var/tmp", "/run/lock", "/run/shm"):
     try:
@@ -277,8 +281,12 @@ def midpoint_circle_trace(r):
     return rows
 """,
     "ipc_2_reader": """
-import ctypes
 import os
+
+try:
+    import ctypes
+except ImportError:  # refused in the sandbox (native code)
+    ctypes = None
 
 
 def _found():
@@ -542,6 +550,53 @@ def midpoint_circle_trace(r):
     return circle_perimeter(0, 0, r)
 """,
 }
+
+# Cells nested deeper than the grader's own parser goes (Python may still run them): the
+# grader must not break, the rest of the notebook is graded.
+ATTACKS["deep_expression"] = (
+    "_z = " + "+".join(["1"] * 3000) + "\n# %% cell\n"
+    "_t = (1)" + ".real" * 3000 + "\n# %% cell\n"
+    "def _again():\n    return _again\n\n\n_u = _again" + "()" * 3000 + "\n# %% cell\n"
+    "def midpoint_circle_trace(r):\n    return None\n"
+)
+# Exception text that no encoding can print (a lone surrogate): shown escaped.
+ATTACKS["surrogate_text"] = """
+raise ValueError("cell text \\ud800 \\udcff end")
+# %% cell
+def midpoint_circle_trace(r):
+    raise ValueError("call text \\ud800 end")
+"""
+
+# Native code of forbidden libraries (cv2's bundled shared libraries) or of the system
+# (libjpeg's tables) through a foreign-function interface: none is importable, the
+# wheels' `.libs` folders of forbidden libraries are empty.
+ATTACKS["native_code"] = """
+import glob
+import os
+
+import numpy
+
+
+def _probe():
+    found = []
+    for name in ("ctypes", "_ctypes", "cffi", "_cffi_backend"):
+        try:
+            __import__(name)
+            found.append(name)
+        except ImportError:
+            pass
+    site = os.path.dirname(os.path.dirname(numpy.__file__))
+    for libs in ("opencv_python_headless.libs", "cv2"):
+        found += [p for p in glob.glob(os.path.join(site, libs, "*")) if ".so" in p]
+    return found
+
+
+FOUND = _probe()
+
+
+def midpoint_circle_trace(r):
+    raise RuntimeError("NATIVE " + repr(FOUND)[:300])
+"""
 
 # Attacks that replace no function: q1 is left unsolved instead.
 TOPLEVEL = {"toplevel_loop"}
