@@ -260,6 +260,14 @@ def test_batch_kills_a_submission_past_its_wall_clock_limit():
     assert time.monotonic() - started < 30
 
 
+def call_get(box):
+    """What the student function `get()`, defined by an exec'd cell, returns."""
+    empty = codec.encode([])
+    return box.request(
+        "call", 30, name="get", transforms=empty, args=empty, kwargs=codec.encode({})
+    )
+
+
 def test_forbidden_module_message_names_the_importer():
     cell = (
         "try:\n    import scipy.signal\nexcept ImportError as exc:\n    MESSAGE = str(exc)\n"
@@ -268,14 +276,7 @@ def test_forbidden_module_message_names_the_importer():
     with Sandbox(Limits(call_timeout=30), forbid=("scipy.fft",)) as box:
         box.start()
         box.request("exec", 60, cell=0, source=cell)
-        message = box.request(
-            "call",
-            30,
-            name="get",
-            transforms=codec.encode([]),
-            args=codec.encode([]),
-            kwargs=codec.encode({}),
-        )
+        message = call_get(box)
     assert "`scipy.fft` is not allowed in this assignment" in message
     assert "(imported through `scipy.signal`" in message, message
 
@@ -308,14 +309,7 @@ def test_native_code_is_closed_and_jax_still_imports():
     with Sandbox(Limits(call_timeout=30), forbid=("shapely", "bezier")) as box:
         box.start()
         box.request("exec", 60, cell=0, source=cell)
-        found = box.request(
-            "call",
-            30,
-            name="get",
-            transforms=codec.encode([]),
-            args=codec.encode([]),
-            kwargs=codec.encode({}),
-        )
+        found = call_get(box)
     assert found == [2.0], found
 
 
