@@ -581,10 +581,11 @@ def _result(problem, z, state, loss_history, converged, name) -> FitResult:
     best_step = int(best_step) if np.isfinite(float(best_loss)) else 0
     if float(loss_history[0]) <= loss_history[best_step]:
         best_z, best_step = z, 0  # the start is as good as anything seen
-    if len(loss_history) > 1 and np.min(loss_history[1:]) > loss_history[0] * (1 + 1e-6):
+    start = float(loss_history[0])  # a scalar loss may be negative: a tolerance on |start|
+    if len(loss_history) > 1 and np.min(loss_history[1:]) > start + 1e-6 * abs(start):
         warnings.warn(
             f"fit ({name}): every step made the loss worse than at the start "
-            f"({float(loss_history[0]):.4g}); the start is returned. Try a smaller learning "
+            f"({start:.4g}); the start is returned. Try a smaller learning "
             "rate, or hold parameters that should not move fixed (`fixed=`)",
             RuntimeWarning,
             stacklevel=3,

@@ -1,5 +1,7 @@
 """gfxlab.fit: every method reaches the least-squares optimum that numpy computes."""
 
+import warnings
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -449,3 +451,12 @@ def test_integer_outputs_and_mixed_float_dtypes_are_clear_errors():
         fit(lambda p, y: p - y, jnp.zeros(3, jnp.float32), args=(jnp.ones(3),))
     result = fit(lambda p, y: p - y, jnp.zeros(3), args=(jnp.ones(3),))  # one dtype: fine
     np.testing.assert_allclose(result.params, 1.0)
+
+
+def test_a_negative_loss_that_improves_does_not_warn():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        result = fit(
+            lambda p: jnp.sum((p - 1.0) ** 2) - 10.0, jnp.zeros(2), method="adam", max_steps=20
+        )
+    assert result.loss < float(result.loss_history[0]) - 1.0 and result.best_step > 0
