@@ -459,4 +459,4 @@ def test_a_negative_loss_that_improves_does_not_warn():
         result = fit(
             lambda p: jnp.sum((p - 1.0) ** 2) - 10.0, jnp.zeros(2), method="adam", max_steps=20
         )
-    assert result.loss < float(result.loss_history[0]) - 1.0 and result.best_step > 0
+    assert result.loss < float(result.loss_history[0]) - 0.5 and result.best_step > 0
