@@ -171,19 +171,18 @@ def _imports(units) -> tuple[set[str], list[ast.stmt]]:
     and the alias statements."""
     imported = {n for u in units if isinstance(u, (ast.Import, ast.ImportFrom)) for n in _bound(u)}
     others = [u for u in units if not isinstance(u, (ast.Import, ast.ImportFrom))]
-    aliases: list[ast.stmt] = []
+    aliases: list[ast.stmt] = []  # (AST nodes compare by identity: `in` finds the statement)
     while True:
-        rest = [u for u in others if not any(u is a for a in aliases)]
+        rest = [u for u in others if u not in aliases]
         modules = imported - {n for u in rest for n in _bound(u)}
-        new = [u for u in rest if _module_alias(u, modules)]
-        if not new:
-            return modules, aliases
-        for u in new:  # an alias counts only if nothing else binds its name
+        added = False
+        for u in filter(lambda u: _module_alias(u, modules), rest):
             rebound = {n for v in rest if v is not u for n in _bound(v)}
-            if not (_bound(u) & rebound):
+            if not (_bound(u) & rebound):  # an alias counts only if nothing else binds its name
                 aliases.append(u)
                 imported |= _bound(u)
-        if not any(any(u is a for a in aliases) for u in new):
+                added = True
+        if not added:
             return modules, aliases
 
 
@@ -227,7 +226,7 @@ def forbidden_closure(units, forbidden, function) -> frozenset:
     imports, aliases = _imports(units)
     bound_by = {}
     for u in units:
-        if not isinstance(u, (ast.Import, ast.ImportFrom)) and not any(u is a for a in aliases):
+        if not isinstance(u, (ast.Import, ast.ImportFrom)) and u not in aliases:
             for name in _bound(u):
                 bound_by.setdefault(name, []).append(u)
     closure, todo = set(), list(forbidden)

@@ -15,7 +15,6 @@ import functools
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 from jaxtyping import Array, Float
 
 from gfxlab._checks import check_range, check_shape, finite_float, value_error_if
@@ -121,10 +120,11 @@ def compress(
 
     The decoded image, same shape and dtype as `image`.
     """
-    if not jnp.issubdtype(getattr(image, "dtype", np.float64), jnp.floating):
+    dtype = getattr(image, "dtype", None)  # (lists and None: as_float's checks below)
+    if dtype is not None and not jnp.issubdtype(dtype, jnp.floating):
         # uint8 levels would be read as values far above 1 and decoded as white
         raise TypeError(
-            f"`image` must be a floating-point image in [0, 1], got dtype {image.dtype} "
+            f"`image` must be a floating-point image in [0, 1], got dtype {dtype} "
             "(divide uint8 levels by 255)"
         )
     image = check_range(finite_float(image, "image"), "image", minimum=0.0, maximum=1.0)
