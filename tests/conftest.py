@@ -181,10 +181,13 @@ if _PROFILE:
 
     _compiled = [0.0, 0]
 
-    def _on_duration(event, duration, **_):
+    _programs: list[str] = []  # each compiled program's name and seconds, for FILE.programs
+
+    def _on_duration(event, duration, fun_name="?", **_):
         if event == "/jax/core/compile/backend_compile_duration":
             _compiled[0] += duration
             _compiled[1] += 1
+            _programs.append(f"{duration:.3f} {fun_name}")
 
     jax.monitoring.register_event_duration_secs_listener(_on_duration)
 
@@ -199,7 +202,11 @@ if _PROFILE:
         yield
         with open(_PROFILE, "a") as out:
             out.write(
+                f"{os.environ.get('PYTEST_XDIST_WORKER', 'gw')} {start:12.2f} "
                 f"{_compiled[0] - before[0]:8.2f} {_compiled[1] - before[1]:5d} "
                 f"{time.perf_counter() - start:8.2f} {time.process_time() - cpu:8.2f} "
                 f"{_children_cpu() - children:8.2f} {item.nodeid}\n"
             )
+        with open(f"{_PROFILE}.programs", "a") as out:
+            out.writelines(f"{p} {item.nodeid}\n" for p in _programs)
+        _programs.clear()
