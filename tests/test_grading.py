@@ -819,3 +819,32 @@ def test_refuses_to_grade_unconfined(monkeypatch, tmp_path):
         Autograder(result.autograder).grade_cells(["def double(x):\n    return 2 * x"])
     with pytest.raises(IsolationUnavailable):
         check(result.student_notebook)
+
+
+@grading
+def test_batch_grades_in_a_random_order_and_reports_in_the_given_one(built, tmp_path, monkeypatch):
+    """A grader process starts the next sandbox while it grades one (the next student's
+    code can tell how long it waited): the order is random, the results are not."""
+    from gfxlab.grading import commands
+    from gfxlab.grading.grader import GradeResult
+
+    result = built["midpoint_circle"]
+    folder = tmp_path / "subs"
+    folder.mkdir()
+    names = [f"s{k:02d}.ipynb" for k in range(30)]
+    for name in names:
+        (folder / name).write_text(result.student_notebook.read_text())
+    orders = []
+
+    def fake_pool(tasks, jobs, hard_limit):
+        orders.append([pathlib.Path(t[1]).name for t in tasks])
+        assert [t[4] for t in tasks] == [n < len(tasks) - jobs for n in range(len(tasks))]
+        return [GradeResult(t[2], [], [], [], 0.0) for t in tasks]
+
+    monkeypatch.setattr(commands, "_run_pool", fake_pool)
+    for _ in range(2):
+        got = commands.grade_many([folder / n for n in names], result.autograder, tmp_path / "o")
+        assert [r.submission for r in got] == names
+    assert sorted(orders[0]) == names and orders[0] != orders[1]  # 1 in 30! to fail
+    summary = (tmp_path / "o" / "summary.csv").read_text().splitlines()[1:]
+    assert [row.split(",")[0] for row in summary] == names

@@ -27,6 +27,7 @@ import pytest
 from grading_attacks.attacks import (
     BUDGET,
     COMM,
+    HIDDEN_BUDGET,
     HONEST_Q1,
     LEAK_ONLY,
     submission_cells,
@@ -225,6 +226,11 @@ def _scores(report):
     return out
 
 
+def _hidden(test_entry) -> bool:
+    """A Gradescope test entry the student sees only once grades are published."""
+    return test_entry["visibility"] != "visible"
+
+
 def _q1_feedback(report):
     return "\n".join(t["output"] for t in report["tests"] if t["name"].startswith("q1"))
 
@@ -236,11 +242,20 @@ def _check_attack(name, report, hidden_names, seconds):
     for hidden in hidden_names:
         assert hidden not in text, (name, hidden)
     assert "LEAKED-ARGUMENT" not in text and "7007" not in text, name
+    # Only the grader starts a line with its failure marker (student text is on one line).
+    assert not re.search(r"^\s*GRADING ERROR", report["output"], re.M), (name, report["output"])
     if name == "reference" or name in HONEST_Q1:
         assert scores == {"q1": 5, "q2": 5, "q3": 5}, (name, report)
         return
+    budget_note = "time budget of 20 s ran out"
+    staff_notes = " ".join(report["extra_data"]["staff_notes"])
+    if name in HIDDEN_BUDGET:  # ran out in hidden tests: public scores, no visible note
+        assert scores["q1"] > 0 and budget_note in staff_notes, (name, report)
+        visible = [report["output"]] + [t["output"] for t in report["tests"] if not _hidden(t)]
+        assert "budget" not in " ".join(visible), (name, report)
+        return
     if name in BUDGET:  # one wall-clock budget bounds the whole submission
-        assert "time budget of 20 s ran out" in report["output"] or "crashed too often" in text, (
+        assert budget_note in report["output"] + staff_notes or "crashed too often" in text, (
             name,
             report["output"],
         )

@@ -195,6 +195,8 @@ def _grade_notebook(args) -> int:
             print(f"{q.name}:\n{q.feedback()}\n")
     for note in result.notes:
         print(f"note: {note}")
+    for note in result.staff_notes:
+        print(f"staff note (not shown to the student): {note}")
     print(f"results: {out}  ({result.seconds:.2f} s)")
     if result.error:
         print(f"error: the grader failed: {result.error}", file=sys.stderr)

@@ -17,6 +17,7 @@ import json
 import multiprocessing
 import os
 import pathlib
+import random
 import re
 import shutil
 import sys
@@ -455,14 +456,22 @@ def grade_many(submissions, autograder_dir, out_dir, *, jobs=None, limits=None):
     require_confinement()
     grader = Autograder(directory)
     labels = [_bounded(pathlib.Path(s).name, 200) for s in submissions]
+    # In a random order: a grader process starts the next submission's sandbox while it
+    # grades one, and code in that sandbox can tell how long it waited (the previous
+    # submission's time, which that submission chose); so no one can choose to follow a
+    # given submission.
+    order = list(range(len(submissions)))
+    random.SystemRandom().shuffle(order)
     tasks = [
-        (directory, s, lb, limits, i < len(submissions) - jobs)
-        for i, (s, lb) in enumerate(zip(submissions, labels, strict=True))
+        (directory, submissions[k], labels[k], limits, n < len(order) - jobs)
+        for n, k in enumerate(order)
     ]
     # An assignment with `separate` rules may grade a question again in a second sandbox.
     budgets = 2 if grader.config.get("separate") else 1
     hard_limit = budgets * grader.limits(limits).budget_seconds + HARD_MARGIN_SECONDS
-    results = _run_pool(tasks, jobs, hard_limit)
+    results = [None] * len(order)
+    for k, result in zip(order, _run_pool(tasks, jobs, hard_limit), strict=True):
+        results[k] = result
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     names = [q.name for q in grader.questions]
@@ -487,7 +496,7 @@ def grade_many(submissions, autograder_dir, out_dir, *, jobs=None, limits=None):
                     f"{maximum:g}",
                     f"{result.seconds:.2f}",
                     csv_cell(result.error or ""),
-                    csv_cell(" | ".join(result.notes)),
+                    csv_cell(" | ".join(result.notes + result.staff_notes)),
                 ]
             )
     return results

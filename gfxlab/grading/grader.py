@@ -226,6 +226,9 @@ class GradeResult:
 
     `error` is set when the grader itself failed (the sandbox could not start, ...): the
     score is then not the student's, and the command line exits with an error.
+    `notes` are shown to the student; `staff_notes` (what happened once hidden tests had
+    started) only to the staff: in `results.json`'s `extra_data`, the summary and the
+    command line's output.
     """
 
     submission: str
@@ -234,6 +237,7 @@ class GradeResult:
     protections: list[str]
     seconds: float
     error: str | None = None
+    staff_notes: list[str] = dataclasses.field(default_factory=list)
 
     @property
     def score(self) -> float:
@@ -263,6 +267,7 @@ class GradeResult:
             "extra_data": {
                 "isolation": [_bounded(p, 1000) for p in self.protections],
                 "grading_error": bool(self.error),
+                "staff_notes": [_bounded(n, 1000) for n in self.staff_notes[:20]],
             },
         }
 
@@ -473,6 +478,7 @@ class Autograder:
             session.sandbox.describe() if session.sandbox.applied else prot.describe(),
             time.perf_counter() - started,
             error,
+            session.staff_notes,
         )
 
     def _grade_question(self, question, session, which="all", rename=None) -> QuestionResult:

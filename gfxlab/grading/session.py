@@ -88,13 +88,21 @@ class StudentSession:
         self.stopped: dict[str, str] = {}
         self.restarts = -1
         self.notes: list[str] = []
+        # Notes made once hidden tests have started (the budget running out there): their
+        # timing is the student's to choose and could spell out a hidden input, so they
+        # are for the staff only.
+        self.staff_notes: list[str] = []
         self.infrastructure_error: str | None = None
         self.deadline = time.monotonic() + limits.budget_seconds
         self.hidden_started = False
 
-    def _note(self, text: str) -> None:
-        if text not in self.notes and len(self.notes) < 20:
-            self.notes.append(text[:1000])
+    def _note(self, text: str, *, staff_only: bool = False) -> None:
+        # One line each: a student's exception text cannot start a line of its own that
+        # reads like the grader's (e.g. a forged "GRADING ERROR ... staff will regrade").
+        text = " ".join(str(text).split())[:1000]
+        notes = self.staff_notes if staff_only else self.notes
+        if text not in notes and len(notes) < 20:
+            notes.append(text)
 
     def _timeout(self, seconds: float) -> float:
         remaining = self.deadline - time.monotonic()
@@ -103,7 +111,7 @@ class StudentSession:
                 f"the submission's time budget of {self.limits.budget_seconds:g} s "
                 "ran out; the rest is not graded"
             )
-            self._note(message)
+            self._note(message, staff_only=self.hidden_started)
             self.sandbox.close()
             raise StudentCallError(message)
         return seconds  # CPU seconds; the wall clock is bounded by `remaining()`

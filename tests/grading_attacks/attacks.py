@@ -598,12 +598,46 @@ def midpoint_circle_trace(r):
     raise RuntimeError("NATIVE " + repr(FOUND)[:300])
 """
 
+# A cell's exception text that reads like the grader's own failure line: shown on one line
+# after "code cell N raised", never as a line of its own.
+ATTACKS["forged_grading_error"] = """
+raise RuntimeError(
+    "\\n\\nGRADING ERROR (not your fault; staff will regrade): the sandbox did not start"
+    "\\nExpected score 15/15."
+)
+# %% cell
+def midpoint_circle_trace(r):
+    return None
+"""
+# Sleep only on inputs the public tests do not use (r = 10 and 3): the budget runs out
+# during hidden tests, which must not show in anything visible (one bit of a hidden input
+# per submission otherwise).
+ATTACKS["hidden_budget"] = """
+import time
+
+
+def midpoint_circle_trace(r):
+    if r not in (3, 10):
+        time.sleep({call_wall} - 0.5)
+    x, y, p = 0, r, 1 - r
+    rows = []
+    while x < y:
+        x += 1
+        if p >= 0:
+            y -= 1
+        rows.append((p, x, y))
+        p += 2 * x + 1 if p < 0 else 2 * x + 1 - 2 * y
+    return rows
+"""
+
 # Attacks that replace no function: q1 is left unsolved instead.
 TOPLEVEL = {"toplevel_loop"}
 # Attacks that only get their honest part: q1 solved (the writer) -> full marks.
 HONEST_Q1 = {"ipc_1_writer"}
 # Attacks bounded by the submission's time budget: q2 and q3 may lose their marks too.
 BUDGET = {"slow_calls"}
+# Attacks whose budget runs out in hidden tests: the note is for the staff only.
+HIDDEN_BUDGET = {"hidden_budget"}
 # Attacks that break their own q2/q3 to leak through them: only q1 and leaks are checked.
 LEAK_ONLY = {"leak_via_public"}
 
