@@ -223,10 +223,11 @@ _GFXLAB_KEPT = {"grading", "_resources", "__init__"}  # `check_array` for public
 
 
 # Foreign-function interfaces run any native library (a forbidden package's own, or the
-# system's libjpeg): never importable in a student process. `cffi` is not needed by the
-# allowed libraries and is stubbed out; JAX imports `ctypes` itself (`jax._src.ffi`), so
-# the worker's import hook refuses `ctypes` to every importer but JAX (`_worker._NativeGate`).
-ALWAYS_FORBIDDEN = ("cffi", "_cffi_backend")
+# system's libjpeg): never importable in a student process, their files stubbed out like a
+# forbidden module's (so no file loader reaches them either). JAX and SciPy import `ctypes`
+# as they load; the worker's import hook gives them an inert stand-in
+# (`_worker._NativeGate`).
+ALWAYS_FORBIDDEN = ("cffi", "_cffi_backend", "ctypes", "_ctypes")
 
 
 def expand_forbidden(modules) -> list[str]:

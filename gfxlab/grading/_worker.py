@@ -175,16 +175,70 @@ NATIVE_IMPORTERS = ("jax", "jaxlib", "scipy")  # they import it themselves
 
 
 class _NativeGate:
-    """Meta-path finder: `ctypes` (which runs any native library: a forbidden package's
-    own, the system's libjpeg) is importable only by the modules of JAX and SciPy, which
-    need it to import (`jax._src.ffi`, `scipy._lib._ccallback`); numpy does without it."""
+    """Meta-path finder for `ctypes`, which runs any native library (a forbidden
+    package's own, the system's libjpeg).
+
+    A student's import of it fails. JAX and SciPy import it as they load
+    (`jax._src.ffi`, `scipy._lib._ccallback`) but need it only to call native code the
+    student would bring: they get `_InertCtypes`, a stand-in with the names they read
+    and nothing that runs native code. So no module attribute (`jax._src.ffi.ctypes`)
+    leads to the real one, and the real one's files can be forbidden like `cffi`'s.
+    """
 
     def find_spec(self, name, path=None, target=None):
         if not any(name == g or name.startswith(g + ".") for g in NATIVE_GATED):
             return None
         if not _imported_by_a_library():
             raise ImportError(f"`{name}` (native code) is not allowed in a graded submission")
-        return None
+        import importlib.machinery
+
+        return importlib.machinery.ModuleSpec(name, self)
+
+    def create_module(self, spec):
+        return _InertCtypes(spec.name)
+
+    def exec_module(self, module):
+        pass
+
+
+class _NoNativeCode:
+    """Every type and value of the stand-in `ctypes`: making one, calling it or reading
+    its attributes gives another (what SciPy does as it loads), and none is native."""
+
+    def __init__(self, *args, **kwargs):
+        pass
+
+    def __call__(self, *args, **kwargs):
+        return _NoNativeCode()
+
+    def __getattr__(self, name):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        return _NoNativeCode()
+
+
+def _function_type(*args, **kwargs):
+    """`CFUNCTYPE(...)`: a function-pointer type no object is an instance of."""
+    return type("CFunctionType", (_NoNativeCode,), {})
+
+
+_INERT_TYPES: dict = {}
+
+
+def _inert_attribute(module, name):
+    if name.startswith("__"):
+        raise AttributeError(name)
+    if name in ("CFUNCTYPE", "PYFUNCTYPE"):
+        return _function_type
+    if name not in _INERT_TYPES:
+        _INERT_TYPES[name] = type(name, (_NoNativeCode,), {})
+    return _INERT_TYPES[name]
+
+
+class _InertCtypes(type(sys)):
+    """What JAX and SciPy see of `ctypes` in a student process (see `_NativeGate`)."""
+
+    __getattr__ = _inert_attribute
 
 
 def _imported_by_a_library():
