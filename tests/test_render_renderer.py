@@ -417,3 +417,19 @@ def test_render_dense_bad_inputs():
         R.render_dense(mesh, camera, (8, 8), sigma=0.0)
     with pytest.raises(ValueError, match="tile_size"):
         R.render_dense(mesh, camera, (8, 8), tile_size=0)
+
+
+@pytest.mark.parametrize("name", ["sigma", "gamma"])
+def test_nan_or_inf_sigma_and_gamma_say_finite_and_positive_eagerly_and_under_jit(name):
+    """NaN, inf and 0 are refused with one accurate message, eagerly and under jit."""
+    vertices, faces, colors = tiny_scene()
+    mesh = Mesh(vertices, faces, colors)
+    camera = Camera(jnp.array([0.2, 0.1, 2.5]), near=0.5, far=5.0)
+    message = f"`{name}` must be finite and > 0"
+    for bad in (jnp.nan, jnp.inf, 0.0, -1.0):
+        with pytest.raises(ValueError, match=message):
+            R.render(mesh, camera, (8, 8), **{name: bad})
+    run = jax.jit(lambda v: R.render(mesh, camera, (8, 8), capacity=4, **{name: v}).color)
+    assert np.isfinite(np.asarray(run(jnp.asarray(0.5)))).all()
+    with pytest.raises(Exception, match=message):
+        jax.block_until_ready(run(jnp.asarray(jnp.nan)))
