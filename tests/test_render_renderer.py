@@ -233,6 +233,8 @@ def test_check_grads(mode):
         )
         return r.color, r.alpha
 
+    colors = 0.9 * colors  # inside [0, 1] (`Mesh` refuses colours out of it): the finite
+    # differences of check_grads step by eps either way
     check_grads(image, (vertices, colors), order=1, modes=("rev",), eps=1e-6, rtol=1e-4, atol=1e-6)
     if mode == "hard":  # the antialiased silhouette moves with the vertices
         # d sum(alpha) / d vertices, through the VJP check_grads compiled
