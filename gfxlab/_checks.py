@@ -352,13 +352,20 @@ def finite_float(x, name: str = "x") -> jax.Array:
     return check_finite(as_float(x, name), name)
 
 
-def _bound_text(minimum, maximum, lower_open, upper_open) -> str:
-    if minimum is not None and maximum is not None:
+def _bound_text(minimum, maximum, lower_open, upper_open, finite) -> str:
+    """The range in words, accurate for every value it refuses: a finite interval
+    refuses NaN and inf by itself; a half-line says "finite and" when infinities are
+    refused too, else "and not NaN" (NaN fails every comparison)."""
+    if minimum is not None and maximum is not None and np.isfinite([minimum, maximum]).all():
         left, right = "(" if lower_open else "[", ")" if upper_open else "]"
         return f"in {left}{minimum:g}, {maximum:g}{right}"
+    parts = []
     if minimum is not None:
-        return f"{'>' if lower_open else '>='} {minimum:g}"
-    return f"{'<' if upper_open else '<='} {maximum:g}"
+        parts.append(f"{'>' if lower_open else '>='} {minimum:g}")
+    if maximum is not None:
+        parts.append(f"{'<' if upper_open else '<='} {maximum:g}")
+    text = " and ".join(parts)
+    return f"finite and {text}" if finite else f"{text} and not NaN"
 
 
 def check_range(
@@ -369,12 +376,17 @@ def check_range(
     maximum: float | None = None,
     lower_open: bool = False,
     upper_open: bool = False,
+    finite: bool = False,
     what: str = "",
 ):
     """`x` unchanged, after checking `minimum <= x <= maximum` everywhere (eagerly and
-    under jit). `lower_open`/`upper_open` make a bound strict; NaN always fails.
+    under jit). `lower_open`/`upper_open` make a bound strict; NaN always fails, and
+    `finite=True` refuses infinities too (a half-line such as `minimum=0` alone
+    otherwise lets `inf` through).
 
-    The message names the argument and the interval, e.g. "`sigma` must be > 0".
+    The message names the argument and the range, and is true of every refused value:
+    "`q` must be in [1, 100]", "`sigma` must be finite and > 0" (`finite=True`),
+    "`tol` must be >= 0 and not NaN".
     """
     if minimum is None and maximum is None:
         raise TypeError("check_range needs `minimum` or `maximum`")
@@ -382,20 +394,21 @@ def check_range(
     # NumPy for a value in host memory, else JAX (a constant is checked at trace time).
     xp, value = (np, host) if host is not None else (jnp, x)
     with jax.ensure_compile_time_eval():
-        ok = ~xp.isnan(value)
+        ok = xp.isfinite(value) if finite else ~xp.isnan(value)
         if minimum is not None:
             ok = ok & ((value > minimum) if lower_open else (value >= minimum))
         if maximum is not None:
             ok = ok & ((value < maximum) if upper_open else (value <= maximum))
     hint = f" ({what})" if what else ""
-    text = _bound_text(minimum, maximum, lower_open, upper_open)
+    text = _bound_text(minimum, maximum, lower_open, upper_open, finite)
     return value_error_if(x, ~ok, f"`{name}` must be {text}{hint}")
 
 
 def positive(x, name: str, what: str = ""):
-    """`x` unchanged after checking it is finite and > 0 everywhere (eagerly and under jit)."""
-    x = check_finite(x, name)
-    return check_range(x, name, minimum=0, lower_open=True, what=what)
+    """`x` unchanged after checking it is finite and > 0 everywhere (eagerly and under
+    jit): one check, whose message "`name` must be finite and > 0" holds for NaN, inf
+    and values <= 0 alike."""
+    return check_range(x, name, minimum=0, lower_open=True, finite=True, what=what)
 
 
 def check_rect(rect, name: str) -> jax.Array:

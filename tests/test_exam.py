@@ -82,6 +82,21 @@ def _midpoint_trace(r):
     return rows
 
 
+def test_q1b_radius_0_is_the_documented_single_pixel_and_counts_in_the_singular(capsys):
+    """`midpoint_circle(0)` is documented as the single centre pixel; the answer says so
+    ("1 distinct pixel", not "1 distinct pixels") and its other counts stay plural."""
+    answer = exam.solve("Q1b", radius=0)
+    np.testing.assert_array_equal(answer.values["pixels"], [[0, 0]])
+    assert len(answer.values["trace"]) == 0
+    assert gfxlab_main(["exam", "Q1b", "--set", "radius=0"]) == 0
+    out = capsys.readouterr().out
+    assert "1 distinct pixel in all." in out and "pixels in all" not in out
+    assert "the single pixel (0, 0)" in out
+    assert gfxlab_main(["exam", "Q1b", "--set", "radius=1"]) == 0
+    pixels = len(exam.solve("Q1b", radius=1).values["pixels"])
+    assert pixels > 1 and f"{pixels} distinct pixels in all." in capsys.readouterr().out
+
+
 @pytest.mark.parametrize("radius", [10, 7, 23])
 def test_q1b_trace(radius):
     trace = exam.solve("Q1b", radius=radius).values["trace"]

@@ -316,3 +316,64 @@ def test_normals_reject_nan_vertices_eagerly_and_under_jit(maybe_jit):
         with pytest.raises(Exception) as info:
             jax.block_until_ready(maybe_jit(fn)(vertices, jnp.array([[0, 1, 2]])))
         assert "`vertices` must be finite" in (check_message(info.value) or "")
+
+
+@pytest.mark.parametrize(
+    "call, name",
+    [
+        (lambda v: M.cube(v), "size"),
+        (lambda v: M.icosphere(0, radius=v), "radius"),
+        (lambda v: M.cylinder(radius=v, segments=3), "radius"),
+        (lambda v: M.cylinder(height=v, segments=3), "height"),
+        (lambda v: M.torus(v, 0.1, major_segments=3, minor_segments=3), "major_radius"),
+        (lambda v: M.torus(minor_radius=v, major_segments=3, minor_segments=3), "minor_radius"),
+    ],
+)
+def test_procedural_sizes_must_be_finite_and_positive(call, name):
+    """A negative radius would build an inside-out mesh, 0 a degenerate one."""
+    for bad in (-1.0, 0.0, 0, np.nan, np.inf, -np.inf, np.float32(-2.0)):
+        with pytest.raises(ValueError, match=f"^`{name}` must be finite and > 0"):
+            call(bad)
+    with pytest.raises(TypeError, match=f"`{name}` must be a real number"):
+        call("1")
+    with pytest.raises(TypeError, match=f"`{name}` must be a static Python number"):
+        jax.jit(call)(jnp.asarray(0.5))  # sizes are static: a traced one is refused clearly
+    assert signed_volume(call(0.25)) > 0  # a small size gives an outward-facing solid
+
+
+def test_torus_tube_thinner_than_its_ring_and_revolve_needs_a_radius():
+    with pytest.raises(ValueError, match="`minor_radius` must be < `major_radius`"):
+        M.torus(1.0, 1.0)
+    with pytest.raises(ValueError, match="`minor_radius` must be < `major_radius`"):
+        M.torus(0.5, 2.0)
+    with pytest.raises(ValueError, match="`profile` must have a point with radius > 0"):
+        M.revolve([[0.0, 0.0], [0.0, 1.0]], segments=3)
+    with pytest.raises(ValueError, match="`profile` radii must be >= 0"):
+        M.revolve([[0.0, 0.0], [-1.0, 1.0]], segments=3)
+
+
+def test_mesh_colors_and_texture_must_be_in_0_1_eagerly_and_under_jit(maybe_jit):
+    """The documented ranges: colours and texture values in [0, 1]."""
+    from gfxlab._checks import check_message
+
+    vertices, faces = jnp.eye(3), jnp.array([[0, 1, 2]])
+    uvs = {"uvs": jnp.zeros((3, 2)), "uv_faces": faces}
+    good_colors, good_texture = jnp.full((3, 3), 0.5), jnp.ones((2, 2, 3))
+    make = maybe_jit(
+        lambda colors, texture: M.Mesh(vertices, faces, colors, texture=texture, **uvs)
+    )
+    mesh = make(good_colors, good_texture)
+    np.testing.assert_array_equal(mesh.colors, good_colors)
+    for bad in (1.5, -0.25):
+        for colors, texture, name in (
+            (good_colors.at[1, 2].set(bad), good_texture, "colors"),
+            (good_colors, good_texture.at[0, 1, 0].set(bad), "texture"),
+        ):
+            with pytest.raises(Exception) as info:
+                jax.block_until_ready(make(colors, texture))
+            message = check_message(info.value) or ""
+            assert message.startswith(f"`{name}` must be in [0, 1]"), message
+    with pytest.raises(ValueError, match=r"^`colors` must be in \[0, 1\]"):
+        M.icosphere(0).with_colors(jnp.array([0.2, 2.0, 0.3]))
+    with pytest.raises(ValueError, match="`texture` must be in"):
+        M.Mesh(vertices, faces, texture=jnp.full((2, 2, 3), jnp.nan), **uvs)

@@ -233,6 +233,8 @@ def test_check_grads(mode):
         )
         return r.color, r.alpha
 
+    colors = 0.9 * colors  # inside [0, 1] (`Mesh` refuses colours out of it): the finite
+    # differences of check_grads step by eps either way
     check_grads(image, (vertices, colors), order=1, modes=("rev",), eps=1e-6, rtol=1e-4, atol=1e-6)
     if mode == "hard":  # the antialiased silhouette moves with the vertices
         # d sum(alpha) / d vertices, through the VJP check_grads compiled
@@ -417,3 +419,19 @@ def test_render_dense_bad_inputs():
         R.render_dense(mesh, camera, (8, 8), sigma=0.0)
     with pytest.raises(ValueError, match="tile_size"):
         R.render_dense(mesh, camera, (8, 8), tile_size=0)
+
+
+@pytest.mark.parametrize("name", ["sigma", "gamma"])
+def test_nan_or_inf_sigma_and_gamma_say_finite_and_positive_eagerly_and_under_jit(name):
+    """NaN, inf and 0 are refused with one accurate message, eagerly and under jit."""
+    vertices, faces, colors = tiny_scene()
+    mesh = Mesh(vertices, faces, colors)
+    camera = Camera(jnp.array([0.2, 0.1, 2.5]), near=0.5, far=5.0)
+    message = f"`{name}` must be finite and > 0"
+    for bad in (jnp.nan, jnp.inf, 0.0, -1.0):
+        with pytest.raises(ValueError, match=message):
+            R.render(mesh, camera, (8, 8), **{name: bad})
+    run = jax.jit(lambda v: R.render(mesh, camera, (8, 8), capacity=4, **{name: v}).color)
+    assert np.isfinite(np.asarray(run(jnp.asarray(0.5)))).all()
+    with pytest.raises(Exception, match=message):
+        jax.block_until_ready(run(jnp.asarray(jnp.nan)))

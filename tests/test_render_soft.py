@@ -186,6 +186,8 @@ def test_check_grads_of_the_soft_rasterizer():
         )
         return rgba, depth
 
+    colors = 0.9 * colors  # inside [0, 1] (`Mesh` refuses colours out of it): the finite
+    # differences of check_grads step by eps either way
     check_grads(
         render, (vertices, colors, eye), order=1, modes=("rev",), eps=1e-6, rtol=1e-4, atol=1e-6
     )

@@ -35,7 +35,8 @@ def _q1b(q: Question, *, radius: int = 10) -> Answer:
         ),
         Step(
             "Other seven octants by symmetry",
-            f"(±x, ±y) and (±y, ±x): {len(pixels)} distinct pixels in all.",
+            f"(±x, ±y) and (±y, ±x): {_count(len(pixels), 'distinct pixel')} in all.",
+            note="r = 0 draws the single pixel (0, 0): no step to take." if radius == 0 else "",
         ),
     ]
     return Answer(
@@ -52,6 +53,11 @@ def _q1b(q: Question, *, radius: int = 10) -> Answer:
         "gfxlab.raster.midpoint_circle(r).",
         figure=lambda: _figure_pixels(pixels, trace, radius),
     )
+
+
+def _count(n: int, noun: str) -> str:
+    """`n` and `noun`, plural unless `n` is 1: "1 distinct pixel", "80 distinct pixels"."""
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
 
 
 def _figure_pixels(pixels, trace, radius):

@@ -13,6 +13,7 @@ from .._checks import (
     check_finite,
     check_shape,
     is_traced,
+    positive,
     static_shape,
     value_error_if,
 )
@@ -106,7 +107,7 @@ def render_options(mesh, dtype, sigma, gamma, ambient, background, eps, eps_back
     sigma = jnp.asarray(as_float(sigma, "sigma"), dtype)
     gamma = jnp.asarray(as_float(gamma, "gamma"), dtype)
     sigma, *sizes = check_options(sigma, eps, *sizes)
-    gamma = value_error_if(gamma, ~(gamma > 0), "`gamma` must be > 0")
+    gamma = positive(gamma, "gamma")
     channels = (
         mesh.colors.shape[1]
         if mesh.colors is not None

@@ -19,7 +19,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._checks import is_traced, static_int, value_error_if
+from .._checks import is_traced, positive, static_int
 from .._pixels import pixel_centers
 
 
@@ -426,7 +426,7 @@ def check_capacity(image, max_count, capacity, tile_size, faces=None):
 
 
 def check_options(sigma, eps, tile_size, capacity, tiles_per_step):
-    sigma = value_error_if(sigma, ~(sigma > 0), "`sigma` must be > 0 (in pixels^2)")
+    sigma = positive(sigma, "sigma", "in pixels^2")
     if not isinstance(eps, float | int) or not 0 < eps < 0.5:
         raise ValueError(f"`eps` must be a Python float in (0, 0.5), got {eps!r}")
     tile_size = static_int(tile_size, "tile_size", minimum=1, maximum=256)

@@ -418,7 +418,8 @@ def render(
       batch of views.
     - `shape`: image shape `(H, W)` (static).
     - `mode`: `"soft"` (SoftRas) or `"hard"` (z-buffer with edge antialiasing).
-    - `sigma` (pixels^2), `gamma`: SoftRas' sharpness and depth temperature (soft only).
+    - `sigma` (pixels^2), `gamma`: SoftRas' sharpness and depth temperature (soft only;
+      finite and > 0).
     - `lights`, `brdf`, `ambient`: shading (`gfxlab.render.shade`); `lights=None`
       renders the unlit albedo.
     - `background`: background colour (scalar or `(C,)`).

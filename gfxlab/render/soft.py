@@ -27,9 +27,9 @@ from .._checks import (
     as_float,
     check_finite,
     check_shape,
+    positive,
     safe_normalize,
     static_shape,
-    value_error_if,
 )
 from ..mesh import Mesh, check_faces, face_normals
 from ..viewing import Camera
@@ -102,7 +102,7 @@ def soft_silhouette(
       centres on integers); NaN or infinite positions are an error.
     - `faces`: `(F, 3)` integer vertex indices.
     - `shape`: image shape `(H, W)` (static).
-    - `sigma`: sharpness in pixels^2 (> 0); small is sharp.
+    - `sigma`: sharpness in pixels^2 (finite, > 0); small is sharp.
     - `eps`: probability below which a face is dropped at a pixel (sets the bin margin).
     - `tile_size`, `capacity`: tiles of `tile_size^2` pixels see at most `capacity`
       faces each. `None` (default) measures it from the geometry (eager calls); an
@@ -309,8 +309,8 @@ def soft_rasterize(
       with clamped barycentric coordinates.
     - `camera`: a `gfxlab.viewing.Camera`.
     - `shape`: image shape `(H, W)` (static).
-    - `sigma`: edge sharpness in pixels^2 (> 0).
-    - `gamma`: depth temperature (> 0); small makes the nearest face win.
+    - `sigma`: edge sharpness in pixels^2 (finite, > 0).
+    - `gamma`: depth temperature (finite, > 0); small makes the nearest face win.
     - `background`: background colour `(C,)`.
     - `light`: optional direction towards a light (world space) for two-sided flat
       Lambert shading `ambient + (1 - ambient) |n . l|`.
@@ -368,7 +368,7 @@ def _rasterize(mesh, camera, shape, options, sizes, *, reference=False):
     check_shape(sigma, "sigma", ())
     check_shape(gamma, "gamma", ())
     sigma, tile_size, capacity, tiles_per_step = check_options(sigma, eps, *sizes)
-    gamma = value_error_if(gamma, ~(gamma > 0), "`gamma` must be > 0")
+    gamma = positive(gamma, "gamma")
     background = check_finite(as_float(background, "background").astype(dtype), "background")
     check_shape(background, "background", (colors.shape[-1],))
     if reference:
