@@ -14,6 +14,18 @@ import pathlib
 
 TARGET = "def midpoint_circle_trace"
 
+# A correct midpoint-circle trace: the body of attacks that are honest but slow.
+HONEST_TRACE = """    x, y, p = 0, r, 1 - r
+    rows = []
+    while x < y:
+        x += 1
+        if p >= 0:
+            y -= 1
+        rows.append((p, x, y))
+        p += 2 * x + 1 if p < 0 else 2 * x + 1 - 2 * y
+    return rows
+"""
+
 ATTACKS = {
     # An object that claims to equal anything (and a list subclass doing the same).
     "eq_always_true": """
@@ -398,16 +410,8 @@ import time
 
 def midpoint_circle_trace(r):
     time.sleep({call_wall} - 0.5)
-    x, y, p = 0, r, 1 - r
-    rows = []
-    while x < y:
-        x += 1
-        if p >= 0:
-            y -= 1
-        rows.append((p, x, y))
-        p += 2 * x + 1 if p < 0 else 2 * x + 1 - 2 * y
-    return rows
-""",
+"""
+    + HONEST_TRACE,
     # A slow top-level cell, then a crash on every call: every restart replays the cell
     # (the grader stops calling a function that crashed, so this stays short).
     "crash_replay": """
@@ -612,23 +616,17 @@ def midpoint_circle_trace(r):
 # Sleep only on inputs the public tests do not use (r = 10 and 3): the budget runs out
 # during hidden tests, which must not show in anything visible (one bit of a hidden input
 # per submission otherwise).
-ATTACKS["hidden_budget"] = """
+ATTACKS["hidden_budget"] = (
+    """
 import time
 
 
 def midpoint_circle_trace(r):
     if r not in (3, 10):
         time.sleep({call_wall} - 0.5)
-    x, y, p = 0, r, 1 - r
-    rows = []
-    while x < y:
-        x += 1
-        if p >= 0:
-            y -= 1
-        rows.append((p, x, y))
-        p += 2 * x + 1 if p < 0 else 2 * x + 1 - 2 * y
-    return rows
 """
+    + HONEST_TRACE
+)
 
 # Attacks that replace no function: q1 is left unsolved instead.
 TOPLEVEL = {"toplevel_loop"}
