@@ -866,3 +866,39 @@ def test_batch_grades_in_a_random_order_and_reports_in_the_given_one(built, tmp_
     assert sorted(orders[0]) == names and orders[0] != orders[1]  # 1 in 30! to fail
     summary = (tmp_path / "o" / "summary.csv").read_text().splitlines()[1:]
     assert [row.split(",")[0] for row in summary] == names
+
+
+def _run_classic_bpf(program: bytes, arch: int, number: int) -> int:
+    """The return value of a classic-BPF seccomp program (the instructions the grader
+    uses: load a word of `seccomp_data`, jump if equal / greater or equal, return)."""
+    import struct
+
+    code = [struct.unpack("<HBBI", program[i : i + 8]) for i in range(0, len(program), 8)]
+    data, a, pc = {0: number, 4: arch}, 0, 0
+    while True:
+        op, jt, jf, k = code[pc]
+        if op == 0x20:
+            a = data[k]
+        elif op in (0x15, 0x35):
+            taken = a == k if op == 0x15 else a >= k
+            pc += jt if taken else jf
+        elif op == 0x06:
+            return k
+        else:
+            raise AssertionError(f"unexpected BPF instruction {op:#x}")
+        pc += 1
+
+
+@pytest.mark.skipif(os.uname().machine not in ("x86_64", "aarch64"), reason="no filter here")
+def test_seccomp_refuses_memfd_ptrace_and_cross_process_writes_only():
+    from gfxlab.grading._policy import _SECCOMP_ARCH, seccomp_program
+
+    audit, refused = _SECCOMP_ARCH[os.uname().machine]
+    program = seccomp_program()
+    eperm, allow = 0x00050001, 0x7FFF0000
+    for name in ("memfd_create", "memfd_secret", "ptrace", "process_vm_writev"):
+        assert _run_classic_bpf(program, audit, refused[name]) == eperm, name
+    for number in set(range(0, 460)) - set(refused.values()):
+        assert _run_classic_bpf(program, audit, number) == allow, number
+    assert _run_classic_bpf(program, audit, 0x40000000 + 1) == eperm  # x32
+    assert _run_classic_bpf(program, 0x40000003, 1) == eperm  # i386

@@ -273,8 +273,20 @@ def _check_attack(name, report, hidden_names, seconds):
 def _host_is_clean():
     for place in ("/dev/shm", "/tmp", "/var/tmp", "/run/lock"):
         assert not os.path.exists(os.path.join(place, MARKER)), place
-    names = subprocess.run(["ps", "-eo", "comm="], capture_output=True, text=True).stdout
-    assert COMM not in names.split(), "attack processes outlived grading"
+    assert not _holders_of(COMM), "attack processes outlived grading"
+
+
+def _holders_of(name: str) -> list[str]:
+    """Processes with a file called `name` open (the attacks' mark, see `attacks.COMM`)."""
+    out = []
+    for fd_dir in pathlib.Path("/proc").glob("[0-9]*/fd"):
+        try:
+            links = [os.readlink(fd) for fd in fd_dir.iterdir()]
+        except OSError:  # gone, or not ours to read
+            continue
+        if any(link.endswith("/" + name) for link in links):
+            out.append(fd_dir.parent.name)
+    return out
 
 
 @pytest.fixture(scope="module")
@@ -340,6 +352,7 @@ def test_every_attack_scores_only_its_honest_part(graded):
     assert "raised an exception" in feedback["exception_name"]
     # memfd_create is refused by the seccomp filter: no memory outside every limit.
     assert "MEMFD 0 MB" in feedback["memfd_hoard"], feedback["memfd_hoard"]
+    assert "PROCMEM Read-only file system / Read-only file system" in feedback["proc_mem_write"]
     assert "`skimage` is not allowed in this assignment" in json.dumps(results["forbidden_library"])
     assert "NATIVE []" in feedback["native_code"], feedback["native_code"]
     assert "the reply" in feedback["hash_bomb"] or "dict keys" in feedback["hash_bomb"], feedback[
@@ -487,3 +500,18 @@ def test_text_no_encoding_can_print_is_escaped_by_grade_and_check(tmp_path):
         )
     report = json.loads(out.read_text())
     assert _scores(report) == {"q1": 0, "q2": 5, "q3": 5}
+
+
+def test_the_host_check_sees_processes_holding_the_mark(tmp_path):
+    mark = tmp_path / "gfxlab-mark-probe"
+    code = f"f = open({str(mark)!r}, 'w'); f.write('x'); f.flush(); import time; time.sleep(30)"
+    child = subprocess.Popen([sys.executable, "-c", code])
+    try:
+        deadline = time.monotonic() + 20
+        while not (mark.exists() and mark.stat().st_size) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert _holders_of(mark.name) == [str(child.pid)]
+    finally:
+        child.kill()
+        child.wait()
+    assert _holders_of(mark.name) == []

@@ -116,7 +116,8 @@ class Protections:
             "uts and cgroup namespaces, new session, empty environment, dies with the grader",
             f"runs as {who}",
             f"resource limits: {applied or self.limits_kind}",
-            "seccomp: memfd_create refused (memory no limit would count)"
+            "seccomp: memfd_create (memory no limit would count), ptrace and "
+            "process_vm_writev (writing into other processes) refused"
             if os.uname().machine in _SECCOMP_ARCH
             else "seccomp: none for this architecture (memfd memory counts only in a cgroup)",
             "plain-data RPC over a dedicated pipe, strict decoder, per-request random id",
@@ -132,10 +133,18 @@ _ENABLE = (
 )
 
 
-# Seccomp (classic BPF, given to bwrap): memfd_create and memfd_secret fail with EPERM.
-# Their pages are seen neither by RLIMIT_AS nor by the resident-memory watch, so without
-# a cgroup a submission could hold any amount of memory in them.
-_SECCOMP_ARCH = {"x86_64": (0xC000003E, (319, 447)), "aarch64": (0xC00000B7, (279, 447))}
+# Seccomp (classic BPF, given to bwrap): these system calls fail with EPERM.
+# - memfd_create, memfd_secret: their pages are seen neither by RLIMIT_AS nor by the
+#   resident-memory watch, so without a cgroup a submission could hold any memory in them;
+# - ptrace, process_vm_readv, process_vm_writev: writing into another process of the
+#   sandbox (bwrap's init, to outlive the grading) or patching its own code.
+# (Writes through /proc/PID/mem are closed by mounting /proc read-only.)
+_SECCOMP_ARCH = {
+    "x86_64": (0xC000003E, {"memfd_create": 319, "memfd_secret": 447, "ptrace": 101,
+                            "process_vm_readv": 310, "process_vm_writev": 311}),
+    "aarch64": (0xC00000B7, {"memfd_create": 279, "memfd_secret": 447, "ptrace": 117,
+                             "process_vm_readv": 270, "process_vm_writev": 271}),
+}  # fmt: skip
 
 
 def seccomp_program() -> bytes | None:
@@ -143,16 +152,17 @@ def seccomp_program() -> bytes | None:
     arch = _SECCOMP_ARCH.get(os.uname().machine)
     if arch is None:
         return None
-    audit, (memfd, secret) = arch
+    audit, refused = arch
     allow, deny = 0x7FFF0000, 0x00050000 | 1  # SECCOMP_RET_ALLOW, SECCOMP_RET_ERRNO|EPERM
+    numbers = sorted(refused.values())
     program = [
         (0x20, 0, 0, 4),  # A = arch
         (0x15, 1, 0, audit),  # native arch: go on
         (0x06, 0, 0, deny),  # any other (32-bit) arch: refused
         (0x20, 0, 0, 0),  # A = syscall number
-        (0x35, 3, 0, 0x40000000),  # x32 ABI: refused
-        (0x15, 2, 0, memfd),
-        (0x15, 1, 0, secret),
+        (0x35, len(numbers) + 1, 0, 0x40000000),  # x32 ABI: refused
+        # each refused number jumps over the rest and the "allow" to the final "deny"
+        *[(0x15, len(numbers) - i, 0, n) for i, n in enumerate(numbers)],
         (0x06, 0, 0, allow),
         (0x06, 0, 0, deny),
     ]

@@ -267,6 +267,10 @@ class Sandbox:
         args += [
             "--remount-ro",
             "/dev",
+            # No writes through /proc/PID/mem, which ignore page protections: patching
+            # the worker's own code, or bwrap's init to outlive the grading.
+            "--remount-ro",
+            "/proc",
             "--remount-ro",
             "/",
             "--chdir",

@@ -169,8 +169,8 @@ def midpoint_circle_trace(r):
     "fork_bomb": """
 import os
 
-with open("/proc/self/comm", "w") as _comm:  # every process it forks is visible by name
-    _comm.write({comm!r})
+# Every process it forks holds this file open: the host sees them by it.
+_mark = open("/tmp/{comm}", "w")
 
 
 def midpoint_circle_trace(r):
@@ -322,8 +322,8 @@ def midpoint_circle_trace(r):
 import os
 import time
 
-with open("/proc/self/comm", "w") as _comm:  # every process it forks is visible by name
-    _comm.write({comm!r})
+# Every process it forks holds this file open: the host sees them by it.
+_mark = open("/tmp/{comm}", "w")
 
 
 def midpoint_circle_trace(r):
@@ -459,8 +459,8 @@ def midpoint_circle_trace(r):
 import os
 import time
 
-with open("/proc/self/comm", "w") as _comm:  # every process it forks is visible by name
-    _comm.write({comm!r})
+# Every process it forks holds this file open: the host sees them by it.
+_mark = open("/tmp/{comm}", "w")
 
 
 def midpoint_circle_trace(r):
@@ -544,6 +544,20 @@ def midpoint_circle_trace(r):
     except OSError as exc:
         why = exc.strerror
     raise RuntimeError(f"MEMFD {{len(fds) * 7}} MB ({{why}})")
+""",
+    # Memory writes that ignore page protections: the student process's own code (native
+    # code without ctypes) or bwrap's init (to outlive the grading).
+    "proc_mem_write": """
+def _try(path):
+    try:
+        with open(path, "r+b"):
+            return "WRITABLE"
+    except OSError as exc:
+        return exc.strerror
+
+
+def midpoint_circle_trace(r):
+    raise RuntimeError("PROCMEM " + _try("/proc/self/mem") + " / " + _try("/proc/1/mem"))
 """,
     # A library that solves the assignment, forbidden for it.
     "forbidden_library": """
@@ -640,7 +654,7 @@ HIDDEN_BUDGET = {"hidden_budget"}
 LEAK_ONLY = {"leak_via_public"}
 
 
-COMM = "gfxlab-attack"  # the process name of attacks that fork: must not outlive grading
+COMM = "gfxlab-attack"  # the file attacks that fork hold open: none may outlive grading
 
 
 def submission_cells(reference_cells, attack, **context):
