@@ -50,6 +50,11 @@ CHEATS = {
     + "\n\ndef bezier_point(control, u):\n    return _bern(control, u)\n\n\nTABLE = {}\n\n\n"
     + "def _register():\n    TABLE['f'] = bezier_point\n\n\n_register()\n\n\n"
     + "def de_casteljau(control, u):\n    return TABLE['f'](control, u)\n",
+    # Kept in a library's state by the forbidden code, fetched back without its name.
+    "library_state": BERNSTEIN
+    + "\n\nimport numpy as np\n\n\ndef bezier_point(control, u):\n"
+    + "    np.seterrcall(bezier_point)\n    return _bern(control, u)\n\n\n"
+    + "def de_casteljau(control, u):\n    return np.geterrcall()(control, u)\n",
     "exec": BERNSTEIN
     + "\n\ndef bezier_point(control, u):\n    return _bern(control, u)\n\n\n"
     + "exec('def de_casteljau(control, u):\\n    return bezier_point(control, u)')\n",
@@ -60,8 +65,20 @@ CHEATS = {
 }
 
 
+# The forbidden function only on inputs the public tests do not use: only hidden tests
+# show the rule broken, which must not show before grades are published.
+CHEATS["hidden_only"] = (
+    BERNSTEIN
+    + "\n\ndef bezier_point(control, u):\n    return _bern(control, u)\n\n\n"
+    + DE_CASTELJAU.replace("def de_casteljau", "def _own")
+    + "\n\ndef de_casteljau(control, u):\n"
+    + "    if float(jnp.asarray(control)[0, 0]) == 1.0:  # the public tests' seed\n"
+    + "        return _own(control, u)\n"
+    + "    return bezier_point(control, u)\n"
+)
+
 # Graded through the command line (JAX start-up is slow: the others only statically).
-GRADED = ["container"]
+GRADED = ["container", "hidden_only"]
 
 
 def _cells(reference, q12):
@@ -210,7 +227,16 @@ def test_honest_notebook_with_a_demo_line_keeps_every_mark(graded):
     assert graded["honest_demo"]["score"] == 15, graded["honest_demo"]["output"]
 
 
-@pytest.mark.parametrize("name", GRADED)
+def test_a_rule_only_hidden_tests_show_broken_is_a_staff_note(graded):
+    report = graded["hidden_only"]
+    public = next(t for t in report["tests"] if t["name"] == "q2")
+    assert public["score"] == public["max_score"] and _question(report, "q2") < 5, report
+    note = "`de_casteljau` must be written on its own, without `bezier_point`"
+    assert note not in report["output"], report["output"]
+    assert any(note in n for n in report["extra_data"]["staff_notes"]), report
+
+
+@pytest.mark.parametrize("name", ["container"])
 def test_answers_made_of_another_answer_score_nothing(graded, name):
     report = graded[name]
     assert _question(report, "q2") == 0, (name, report)

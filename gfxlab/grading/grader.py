@@ -467,9 +467,11 @@ class Autograder:
             session.close()
         error = session.infrastructure_error
         if not public_only:
-            notes, reuse_error = reuse.enforce(self, cells, results, limits)
+            notes, staff_notes, reuse_error = reuse.enforce(self, cells, results, limits)
             for note in notes:
                 session._note(note)
+            for note in staff_notes:
+                session._note(note, staff_only=True)
             error = error or reuse_error
         return GradeResult(
             label,

@@ -300,6 +300,7 @@ def plan(cells, rules: dict) -> list[Verdict]:
     units = [u for body in parsed for u in body or []]
     deep = _TOO_DEEP if any(body is None for body in parsed) else None
     hatch = deep or next((h for h in map(_hatch, units) if h), None) or _foreign_import(units)
+    modules = _library_of(units)
     verdicts = []
     for function, forbidden in rules.items():
         verdict = Verdict(function, tuple(forbidden))
@@ -311,13 +312,46 @@ def plan(cells, rules: dict) -> list[Verdict]:
         inside = next((h for h in (_hatch(u, lookup=True) for u in binders) if h), None)
         verdict.hatch = hatch or inside
         verdict.lookup = next((h for h in (_hatch(u, lookup=True) for u in others) if h), None)
+        # Forbidden code that hands one of its names to an imported library
+        # (`np.seterrcall(bezier_point)`) leaves it where code that never names it can
+        # fetch it back (`np.geterrcall()`): graded code using that library is checked.
+        handed = _handed_to_libraries(binders, verdict.closure, modules)
         verdict.dynamic = (
             bool(verdict.lookup)
             or any(_loaded(u) & verdict.closure for u in others)
             or any(function in _bound(u) for u in binders)
+            or any(modules.get(n) in handed for u in others for n in _loaded(u))
         )
         verdicts.append(verdict)
     return verdicts
+
+
+def _library_of(units) -> dict[str, str]:
+    """The top-level module each imported name (or module alias) of the notebook comes
+    from: `np` -> numpy, `seterrcall` of `from numpy import seterrcall` -> numpy."""
+    imported, aliases = _imports(units)
+    out = {}
+    for u in units:
+        if isinstance(u, ast.Import):
+            for a in u.names:
+                out[(a.asname or a.name).split(".")[0]] = a.name.split(".")[0]
+        elif isinstance(u, ast.ImportFrom) and not u.level and u.module:
+            for a in u.names:
+                out[a.asname or a.name] = u.module.split(".")[0]
+    for u in aliases:  # `jnp = jax.numpy`
+        out[u.targets[0].id] = out.get(_root(u.value), _root(u.value))
+    return {name: module for name, module in out.items() if name in imported}
+
+
+def _handed_to_libraries(binders, closure, modules) -> set[str]:
+    """The libraries that `binders` call with one of `closure`'s names in an argument."""
+    handed = set()
+    for node in (n for u in binders for n in ast.walk(u)):
+        if isinstance(node, ast.Call) and _root(node.func) in modules:
+            arguments = [*node.args, *(k.value for k in node.keywords)]
+            if any(_loaded(a) & closure for a in arguments):
+                handed.add(modules[_root(node.func)])
+    return handed
 
 
 def check_cells(cells, closure, token: str) -> list[str]:
@@ -362,15 +396,17 @@ def _message(verdict: Verdict, why: str) -> str:
     )
 
 
-def enforce(grader, cells, results, limits=None) -> tuple[list[str], str | None]:
+def enforce(grader, cells, results, limits=None) -> tuple[list[str], list[str], str | None]:
     """Apply the assignment's `separate` rules to `results` (QuestionResults, changed in
     place): a test that passes only with a forbidden function's code fails.
 
-    **Returns:** notes for the student, and the grader's own error if the second sandbox
-    could not start (the submission is then a grading error, never a silent zero).
+    **Returns:** notes for the student, notes for the staff only (a rule that only hidden
+    tests showed broken: when a hidden test fails there is the student's code's to
+    choose, and would spell out a hidden input), and the grader's own error if the second
+    sandbox could not start (the submission is then a grading error, never a silent zero).
     """
     rules = grader.config.get("separate") or {}
-    notes, error = [], None
+    notes, staff_notes, error = [], [], None
     for verdict in plan(cells, rules):
         index = next(
             (i for i, q in enumerate(grader.questions) if verdict.function in q.functions), None
@@ -384,24 +420,32 @@ def enforce(grader, cells, results, limits=None) -> tuple[list[str], str | None]
             session = grader.session(
                 check_cells(cells, verdict.closure, secrets.token_hex(8)), limits
             )
-            try:
+            try:  # public tests first, as in the first sandbox
                 session.start()
-                again = grader._grade_question(grader.questions[index], session)
+                again = [
+                    t
+                    for which in ("public", "hidden")
+                    for t in grader._grade_question(grader.questions[index], session, which).tests
+                ]
             except Exception:  # anything that stops the check: nothing passes it
-                again = None
+                again = []
             finally:
                 session.close()
             if session.infrastructure_error:
                 error = error or session.infrastructure_error
                 continue
-            passed = {t.name for t in again.tests if t.passed} if again else set()
+            passed = {t.name for t in again if t.passed}
             failed = {t.name for t in results[index].tests if t.passed and t.name not in passed}
             why = "this test passes only with them"
         else:
             continue
+        public = False
         for test in results[index].tests:
             if test.passed and test.name in failed:
                 test.passed, test.message = False, _message(verdict, why)
+                public = public or not test.hidden
         if failed:
-            notes.append(f"{results[index].name}: " + _message(verdict, why))
-    return notes, error
+            (notes if public else staff_notes).append(
+                f"{results[index].name}: " + _message(verdict, why)
+            )
+    return notes, staff_notes, error
