@@ -77,8 +77,19 @@ CHEATS["hidden_only"] = (
     + "    return bezier_point(control, u)\n"
 )
 
+# Handed to a library by a decorator: no name of it is written anywhere else.
+CHEATS["decorator"] = (
+    BERNSTEIN
+    + "\n\nimport numpy as np\n\n\n@(lambda f: np.seterrcall(f) or f)\n"
+    + "def bezier_point(control, u):\n    return _bern(control, u)\n\n\n"
+    + "def de_casteljau(control, u):\n    return np.geterrcall()(control, u)\n"
+)
+# Through library state, which no reading of names can follow: caught only because the
+# second sandbox runs for every rule.
+THROUGH_STATE = ("library_state", "decorator")
+
 # Graded through the command line (JAX start-up is slow: the others only statically).
-GRADED = ["container", "hidden_only"]
+GRADED = ["container", "hidden_only", *THROUGH_STATE]
 
 
 def _cells(reference, q12):
@@ -111,8 +122,8 @@ def test_static_plan_of_the_cheats():
         q2 = verdicts["de_casteljau"]
         if name == "exec":
             assert q2.hatch == "`exec`"
-        elif name == "library":
-            assert not q2.dynamic and q2.hatch is None  # the import stub stops it
+        elif name in ("library", *THROUGH_STATE):
+            assert not q2.dynamic and q2.hatch is None  # the import stub / the rerun stops it
         else:
             assert q2.dynamic, name
     # An honest notebook needs no second sandbox; a demo line using both needs one.
@@ -129,6 +140,22 @@ def test_static_plan_of_the_cheats():
     verdicts = {v.function: v for v in reuse.plan(q1_uses_q2, RULES)}
     assert verdicts["bezier_point"].dynamic and not verdicts["de_casteljau"].dynamic
     assert verdicts["de_casteljau"].closure == {"bezier_point"}
+
+
+def test_notebooks_too_large_to_analyse_are_hatches_found_fast():
+    import time
+
+    honest = ["import jax.numpy as jnp", BERNSTEIN.replace("_bern", "bezier_point"), DE_CASTELJAU]
+    for lines in (30_000, 300_000):  # beyond MAX_NODES; beyond what is even parsed
+        filler = "\n".join(f"a{i} = jnp.pi" for i in range(lines))
+        started = time.perf_counter()
+        verdicts = reuse.plan([*honest, filler], RULES)
+        assert time.perf_counter() - started < 5
+        assert all("too many to be checked" in v.hatch for v in verdicts)
+    chain = "\n".join(f"a{i} = a{i - 1}.x" if i else "a0 = jnp.x" for i in range(3000))
+    started = time.perf_counter()  # module aliases found in one pass, not one per link
+    assert not any(v.hatch for v in reuse.plan([*honest, chain], RULES))
+    assert time.perf_counter() - started < 5
 
 
 def test_cells_too_deep_for_the_parser_are_hatches_not_crashes():
@@ -236,7 +263,7 @@ def test_a_rule_only_hidden_tests_show_broken_is_a_staff_note(graded):
     assert any(note in n for n in report["extra_data"]["staff_notes"]), report
 
 
-@pytest.mark.parametrize("name", ["container"])
+@pytest.mark.parametrize("name", ["container", *THROUGH_STATE])
 def test_answers_made_of_another_answer_score_nothing(graded, name):
     report = graded[name]
     assert _question(report, "q2") == 0, (name, report)

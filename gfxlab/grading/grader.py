@@ -454,6 +454,11 @@ class Autograder:
             # the student's code returns or raises, which must not carry hidden inputs kept
             # from an earlier hidden call in the same process.
             public = [self._grade_question(q, session, "public") for q in self.questions]
+            # The `separate` rules' second sandboxes, before any hidden call here (see
+            # `reuse.rerun`); this session's budget does not run meanwhile.
+            paused = time.monotonic()
+            reruns = [] if public_only else reuse.rerun(self, cells, limits)
+            session.deadline += time.monotonic() - paused
             hidden = [
                 self._grade_question(q, session, "hidden")
                 for q in self.questions
@@ -467,7 +472,7 @@ class Autograder:
             session.close()
         error = session.infrastructure_error
         if not public_only:
-            notes, staff_notes, reuse_error = reuse.enforce(self, cells, results, limits)
+            notes, staff_notes, reuse_error = reuse.enforce(results, reruns)
             for note in notes:
                 session._note(note)
             for note in staff_notes:

@@ -10,10 +10,16 @@ Bernstein form of question 1 called again. The check is made in two steps.
    that also uses dynamic lookups (`exec`, `eval`, `globals`, `getattr`, dunder
    attributes, `sys`, `inspect`, ...) cannot be checked this way: the question scores 0
    (`HATCH_NAMES`, `HATCH_MODULES`).
-2. Dynamic, when the names are used elsewhere (an alias, a helper, a container): the
-   question's tests run again in a second sandbox in which those statements are replaced
-   by functions that raise (`check_cells`): their code is not in that process at all, so
-   no alias or container can keep it. A test that passes only with them scores 0.
+2. Dynamic, for every rule (`rerun`): the question's tests run again in a second
+   sandbox in which those statements are replaced by functions that raise
+   (`check_cells`): their code is not in that process at all, so no alias, container,
+   library state (`np.seterrcall(f)`) or decorator can keep it. A test that passes only
+   with them scores 0 (`enforce`). It runs after the first sandbox's public tests and
+   before its hidden ones, so it cannot learn a hidden input from them. (`plan` still
+   says whether the names are used elsewhere, `Verdict.dynamic`; it cannot prove that
+   they are not, since code reaches objects through library state without their names.)
+3. Notebooks too deep or too large to analyse (`MAX_DEPTH`, `MAX_NODES`) score 0 on the
+   question, as escape hatches do.
 
 Sharing a helper with the forbidden function counts as using it (the handout says so).
 """
@@ -22,8 +28,10 @@ from __future__ import annotations
 
 import ast
 import builtins
+import collections
 import dataclasses
 import importlib.util
+import itertools
 import secrets
 import sys
 
@@ -69,13 +77,18 @@ class Verdict:
     closure: frozenset = frozenset()
     hatch: str | None = None  # an escape hatch that makes the notebook uncheckable
     lookup: str | None = None  # a name lookup elsewhere: the second sandbox decides
-    dynamic: bool = False  # the names are used elsewhere: run the second sandbox
+    dynamic: bool = False  # the names are used elsewhere (the second sandbox always runs)
+    error: str | None = None  # the second sandbox could not start (the grader's problem)
 
 
 # Deeper syntax trees are not analysed (`ast.unparse` and Python's own AST construction
 # recurse): the cell still runs, but a question with a `separate` rule scores 0.
 MAX_DEPTH = 100
 _TOO_DEEP = "a cell nested too deeply to be checked"
+# A larger notebook is not analysed either (the analysis is linear in its syntax nodes, a
+# few tens of microseconds each: a notebook of millions must not stall the grader).
+MAX_NODES = 100_000
+_TOO_LARGE = f"more than {MAX_NODES:,} syntax nodes of code, too many to be checked"
 
 
 def _parse(source: str) -> list[ast.stmt] | None:
@@ -171,16 +184,26 @@ def _imports(units) -> tuple[set[str], list[ast.stmt]]:
     and the alias statements."""
     imported = {n for u in units if isinstance(u, (ast.Import, ast.ImportFrom)) for n in _bound(u)}
     others = [u for u in units if not isinstance(u, (ast.Import, ast.ImportFrom))]
-    aliases: list[ast.stmt] = []  # (AST nodes compare by identity: `in` finds the statement)
+    bound = {id(u): _bound(u) for u in others}
+    # How many statements bind each name (linear: a notebook of thousands of statements
+    # must not make the grader slow).
+    binders = collections.Counter(n for u in others for n in bound[id(u)])
+    aliases: list[ast.stmt] = []
+    alias_ids: set[int] = set()
     while True:
-        rest = [u for u in others if u not in aliases]
-        modules = imported - {n for u in rest for n in _bound(u)}
+        rest_bound = {n for n, count in binders.items() if count}
+        modules = imported - rest_bound
         added = False
-        for u in filter(lambda u: _module_alias(u, modules), rest):
-            rebound = {n for v in rest if v is not u for n in _bound(v)}
-            if not (_bound(u) & rebound):  # an alias counts only if nothing else binds its name
+        for u in others:
+            if id(u) in alias_ids or not _module_alias(u, modules):
+                continue
+            # an alias counts only if no other statement binds its name
+            if all(binders[n] == 1 for n in bound[id(u)]):
                 aliases.append(u)
-                imported |= _bound(u)
+                alias_ids.add(id(u))
+                imported |= bound[id(u)]
+                modules |= bound[id(u)]  # a later `b = a.x` is an alias in this same pass
+                binders.subtract(bound[id(u)])
                 added = True
         if not added:
             return modules, aliases
@@ -292,66 +315,44 @@ def _locals(node) -> set[str]:
     return set()
 
 
+def _too_large(units) -> bool:
+    """More than `MAX_NODES` syntax nodes (counted only that far)."""
+    nodes = (node for u in units for node in ast.walk(u))
+    return next(itertools.islice(nodes, MAX_NODES, None), None) is not None
+
+
 def plan(cells, rules: dict) -> list[Verdict]:
     """The static step for every rule `function -> [forbidden names]`."""
     if not rules:
         return []
-    parsed = [_parse(source) for source in cells]
+    if sum(len(source) for source in cells) > 10 * MAX_NODES:  # not even parsed
+        parsed, deep = [], _TOO_LARGE
+    else:
+        parsed = [_parse(source) for source in cells]
+        deep = _TOO_DEEP if any(body is None for body in parsed) else None
     units = [u for body in parsed for u in body or []]
-    deep = _TOO_DEEP if any(body is None for body in parsed) else None
+    if deep is None and _too_large(units):
+        deep, units = _TOO_LARGE, []
     hatch = deep or next((h for h in map(_hatch, units) if h), None) or _foreign_import(units)
-    modules = _library_of(units)
     verdicts = []
     for function, forbidden in rules.items():
         verdict = Verdict(function, tuple(forbidden))
         closure = forbidden_closure(units, verdict.forbidden, function)
         verdict.closure = closure | _unbound_reads(units, closure)
         binders = [u for u in units if _bound(u) & verdict.closure]
-        others = [u for u in units if not any(u is b for b in binders)]
+        binder_ids = {id(u) for u in binders}
+        others = [u for u in units if id(u) not in binder_ids]
         # A lookup inside the forbidden code could share anything with the graded one.
         inside = next((h for h in (_hatch(u, lookup=True) for u in binders) if h), None)
         verdict.hatch = hatch or inside
         verdict.lookup = next((h for h in (_hatch(u, lookup=True) for u in others) if h), None)
-        # Forbidden code that hands one of its names to an imported library
-        # (`np.seterrcall(bezier_point)`) leaves it where code that never names it can
-        # fetch it back (`np.geterrcall()`): graded code using that library is checked.
-        handed = _handed_to_libraries(binders, verdict.closure, modules)
         verdict.dynamic = (
             bool(verdict.lookup)
             or any(_loaded(u) & verdict.closure for u in others)
             or any(function in _bound(u) for u in binders)
-            or any(modules.get(n) in handed for u in others for n in _loaded(u))
         )
         verdicts.append(verdict)
     return verdicts
-
-
-def _library_of(units) -> dict[str, str]:
-    """The top-level module each imported name (or module alias) of the notebook comes
-    from: `np` -> numpy, `seterrcall` of `from numpy import seterrcall` -> numpy."""
-    imported, aliases = _imports(units)
-    out = {}
-    for u in units:
-        if isinstance(u, ast.Import):
-            for a in u.names:
-                out[(a.asname or a.name).split(".")[0]] = a.name.split(".")[0]
-        elif isinstance(u, ast.ImportFrom) and not u.level and u.module:
-            for a in u.names:
-                out[a.asname or a.name] = u.module.split(".")[0]
-    for u in aliases:  # `jnp = jax.numpy`
-        out[u.targets[0].id] = out.get(_root(u.value), _root(u.value))
-    return {name: module for name, module in out.items() if name in imported}
-
-
-def _handed_to_libraries(binders, closure, modules) -> set[str]:
-    """The libraries that `binders` call with one of `closure`'s names in an argument."""
-    handed = set()
-    for node in (n for u in binders for n in ast.walk(u)):
-        if isinstance(node, ast.Call) and _root(node.func) in modules:
-            arguments = [*node.args, *(k.value for k in node.keywords)]
-            if any(_loaded(a) & closure for a in arguments):
-                handed.add(modules[_root(node.func)])
-    return handed
 
 
 def check_cells(cells, closure, token: str) -> list[str]:
@@ -396,55 +397,71 @@ def _message(verdict: Verdict, why: str) -> str:
     )
 
 
-def enforce(grader, cells, results, limits=None) -> tuple[list[str], list[str], str | None]:
-    """Apply the assignment's `separate` rules to `results` (QuestionResults, changed in
-    place): a test that passes only with a forbidden function's code fails.
+def rerun(grader, cells, limits=None) -> list[tuple[Verdict, int, set[str] | None]]:
+    """The second step for every rule: each rule's question graded again without the
+    forbidden code (`check_cells`), in a second sandbox, public tests first.
 
-    **Returns:** notes for the student, notes for the staff only (a rule that only hidden
-    tests showed broken: when a hidden test fails there is the student's code's to
-    choose, and would spell out a hidden input), and the grader's own error if the second
-    sandbox could not start (the submission is then a grading error, never a silent zero).
+    Called by the grader after the public tests and before any hidden test of the first
+    sandbox: nothing the student's code learns from a hidden call there (and could
+    signal through the clock) exists yet, so what the second sandbox shows of its public
+    tests cannot depend on a hidden input.
+
+    **Returns:** per rule, its verdict, the question's index and the names of the tests
+    that passed without the forbidden code (`None`: the notebook cannot be checked, or
+    the second sandbox could not start, in which case `verdict.error` says why).
     """
     rules = grader.config.get("separate") or {}
-    notes, staff_notes, error = [], [], None
+    out = []
     for verdict in plan(cells, rules):
         index = next(
             (i for i, q in enumerate(grader.questions) if verdict.function in q.functions), None
         )
-        if index is None or not any(t.passed for t in results[index].tests):
+        if index is None:
             continue
         if verdict.hatch:
-            failed = {t.name for t in results[index].tests}
-            why = f"the notebook uses {verdict.hatch}, so this cannot be checked; 0 points"
-        elif verdict.dynamic:
-            session = grader.session(
-                check_cells(cells, verdict.closure, secrets.token_hex(8)), limits
-            )
-            try:  # public tests first, as in the first sandbox
-                session.start()
-                again = [
-                    t
-                    for which in ("public", "hidden")
-                    for t in grader._grade_question(grader.questions[index], session, which).tests
-                ]
-            except Exception:  # anything that stops the check: nothing passes it
-                again = []
-            finally:
-                session.close()
-            if session.infrastructure_error:
-                error = error or session.infrastructure_error
-                continue
-            passed = {t.name for t in again if t.passed}
-            failed = {t.name for t in results[index].tests if t.passed and t.name not in passed}
-            why = "this test passes only with them"
-        else:
+            out.append((verdict, index, None))
             continue
-        public = False
-        for test in results[index].tests:
-            if test.passed and test.name in failed:
-                test.passed, test.message = False, _message(verdict, why)
-                public = public or not test.hidden
+        session = grader.session(check_cells(cells, verdict.closure, secrets.token_hex(8)), limits)
+        try:  # public tests first, as in the first sandbox
+            session.start()
+            again = [
+                t
+                for which in ("public", "hidden")
+                for t in grader._grade_question(grader.questions[index], session, which).tests
+            ]
+        except Exception:  # anything that stops the check: nothing passes it
+            again = []
+        finally:
+            session.close()
+        verdict.error = session.infrastructure_error
+        out.append((verdict, index, None if verdict.error else {t.name for t in again if t.passed}))
+    return out
+
+
+def enforce(results, reruns) -> tuple[list[str], list[str], str | None]:
+    """Apply the `rerun` outcomes to `results` (QuestionResults of the first sandbox,
+    changed in place): a test that passes only with a forbidden function's code fails.
+
+    **Returns:** notes for the student, notes for the staff only (a rule that only hidden
+    tests showed broken: when a hidden test fails there is the student's code's to
+    choose, and would spell out a hidden input), and the grader's own error if a second
+    sandbox could not start (the submission is then a grading error, never a silent zero).
+    """
+    notes, staff_notes, error = [], [], None
+    for verdict, index, passed in reruns:
+        if verdict.error:
+            error = error or verdict.error
+            continue
+        if passed is None:
+            why = f"the notebook uses {verdict.hatch}, so this cannot be checked; 0 points"
+            passed = set()
+        else:
+            why = "this test passes only with them"
+        failed = [t for t in results[index].tests if t.passed and t.name not in passed]
+        for test in failed:
+            test.passed, test.message = False, _message(verdict, why)
         if failed:
+            public = any(not t.hidden for t in failed)
             (notes if public else staff_notes).append(
                 f"{results[index].name}: " + _message(verdict, why)
             )
