@@ -459,11 +459,8 @@ class Autograder:
             paused = time.monotonic()
             reruns = [] if public_only else reuse.rerun(self, cells, limits)
             session.deadline += time.monotonic() - paused
-            hidden = [
-                self._grade_question(q, session, "hidden")
-                for q in self.questions
-                if not public_only
-            ]
+            grade_hidden = [] if public_only else self.questions
+            hidden = [self._grade_question(q, session, "hidden") for q in grade_hidden]
             for i, q in enumerate(self.questions):
                 done = {t.name: t for t in public[i].tests + (hidden[i].tests if hidden else [])}
                 tests = [done[t.name] for t in q.tests if t.name in done]
@@ -473,10 +470,8 @@ class Autograder:
         error = session.infrastructure_error
         if not public_only:
             notes, staff_notes, reuse_error = reuse.enforce(results, reruns)
-            for note in notes:
-                session._note(note)
-            for note in staff_notes:
-                session._note(note, staff_only=True)
+            for note, staff_only in [(n, False) for n in notes] + [(n, True) for n in staff_notes]:
+                session._note(note, staff_only=staff_only)
             error = error or reuse_error
         return GradeResult(
             label,
