@@ -147,9 +147,10 @@ _SECCOMP_ARCH = {
 }  # fmt: skip
 
 
-def seccomp_program() -> bytes | None:
-    """The filter for this machine's architecture (None where it is not known)."""
-    arch = _SECCOMP_ARCH.get(os.uname().machine)
+def seccomp_program(machine: str | None = None) -> bytes | None:
+    """The filter for `machine` (default: this machine's architecture, `os.uname`);
+    None where the architecture is not known."""
+    arch = _SECCOMP_ARCH.get(machine or os.uname().machine)
     if arch is None:
         return None
     audit, refused = arch

@@ -282,16 +282,8 @@ except Exception:
 
 
 def midpoint_circle_trace(r):
-    x, y, p = 0, r, 1 - r
-    rows = []
-    while x < y:
-        x += 1
-        if p >= 0:
-            y -= 1
-        rows.append((p, x, y))
-        p += 2 * x + 1 if p < 0 else 2 * x + 1 - 2 * y
-    return rows
-""",
+"""
+    + HONEST_TRACE,
     "ipc_2_reader": """
 import os
 
