@@ -59,7 +59,11 @@ memoize_jax_frame_filter()
 # CI runs on 2 cores: keep property sweeps modest there; `HYPOTHESIS_PROFILE=thorough`
 # for more.
 settings.register_profile(
-    "ci", max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+    "ci",
+    max_examples=60,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow],
+    derandomize=True,
 )
 settings.register_profile("thorough", max_examples=1000, deadline=None)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
