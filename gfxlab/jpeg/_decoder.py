@@ -1,8 +1,11 @@
 """`decode`: baseline JPEG files, pixel for pixel as libjpeg-turbo decodes them.
 
-The markers are parsed in Python; the scan is entropy-decoded by `_entropy` into a
-preallocated coefficient array (by the compiled loop of `_entropy_xla` for large
-images); the pixels are then reconstructed exactly as
+The markers are parsed in Python; the scan is entropy-decoded by `_entropy` (by the
+compiled loop of `_entropy_xla` for large images) straight into a planar coefficient
+array: per component, each of the 64 coefficient positions is one contiguous row over
+all its blocks, the layout in which XLA runs the IDCT fastest (the coefficients stay
+on the device between the two compiled programs). The pixels are then reconstructed
+exactly as
 libjpeg-turbo does by default (islow IDCT, fancy upsampling, its colour tables),
 vectorized over all blocks: NumPy for small images, one compiled XLA program per
 image geometry for large ones.
@@ -262,58 +265,64 @@ def _scan_plan(state: _State, sos: bytes):
 def _decode_image(state: _State, sos: bytes, data: bytes) -> np.ndarray:
     height, width, comps = state.frame
     order, plan = _scan_plan(state, sos)
-    hmax = max(c[1] for c in comps)
-    vmax = max(c[2] for c in comps)
-    if len(order) == 1:
-        _, h, v, _ = comps[order[0]]
-        n_mcu = _cdiv(_cdiv(height * v, vmax), 8) * _cdiv(_cdiv(width * h, hmax), 8)
-    else:
-        n_mcu = _cdiv(width, 8 * hmax) * _cdiv(height, 8 * vmax)
-    coef = decode_scan(data, plan, n_mcu, state.restart)
+    factors = tuple((c[1], c[2]) for c in comps)
+    dest, places = _destinations(height, width, factors, tuple(order))
+    n_mcu = dest.size // len(plan)
+    coef, stride = decode_scan(data, plan, n_mcu, state.restart, dest)
     tables = np.stack([state.quant[c[3]] for c in comps]).astype(np.int32)
-    geometry = (height, width, tuple((c[1], c[2]) for c in comps), tuple(order), state.colour())
+    geometry = (height, width, factors, places, state.colour())
     if height * width >= _COMPILE_FROM_PIXELS:
-        return np.asarray(_compiled_reconstruction(geometry)(coef, tables))
-    return _reconstruct(coef, tables, geometry, np)
+        return np.asarray(_compiled_reconstruction(geometry, stride)(coef, tables))
+    return _reconstruct(np.asarray(coef), stride, tables, geometry, np)
 
 
-def _blocks_per_component(coef, geometry, xp):
-    """Scan-order zig-zag blocks `(N, 64)` -> per frame component, natural order,
-    `(rows, cols, 8, 8)` real blocks."""
-    height, width, factors, order, _ = geometry
-    natural = coef[:, np.argsort(ZIGZAG)]
+@functools.lru_cache(maxsize=64)
+def _destinations(height: int, width: int, factors: tuple, order: tuple):
+    """Where the scan's blocks go: `dest[b]` for the block at scan position `b` (a
+    planar index: the components one after the other, each block row-major over the
+    component's block grid, MCU padding included) and, per frame component,
+    `(first index, grid rows, grid cols, rows, cols)` of its real blocks (a scan of
+    one component: a frame of one component)."""
     hmax = max(f[0] for f in factors)
     vmax = max(f[1] for f in factors)
-    out = {}
+    places, pieces, first = {}, [], 0  # by frame component
     if len(order) == 1:
         h, v = factors[order[0]]
-        rows = _cdiv(_cdiv(height * v, vmax), 8)
-        cols = _cdiv(_cdiv(width * h, hmax), 8)
-        out[order[0]] = natural.reshape(rows, cols, 8, 8)
-        return out
+        rows, cols = _cdiv(_cdiv(height * v, vmax), 8), _cdiv(_cdiv(width * h, hmax), 8)
+        return np.arange(rows * cols, dtype=np.int32), ((0, rows, cols, rows, cols),)
     mcu_x, mcu_y = _cdiv(width, 8 * hmax), _cdiv(height, 8 * vmax)
-    per_mcu = natural.reshape(mcu_y * mcu_x, -1, 64)
-    first = 0
+    mcu_row, mcu_col = np.divmod(np.arange(mcu_x * mcu_y), mcu_x)
     for i in order:
         h, v = factors[i]
-        part = per_mcu[:, first : first + h * v].reshape(mcu_y, mcu_x, v, h, 8, 8)
-        first += h * v
-        grid = part.transpose(0, 2, 1, 3, 4, 5).reshape(mcu_y * v, mcu_x * h, 8, 8)
-        rows = _cdiv(_cdiv(height * v, vmax), 8)
-        cols = _cdiv(_cdiv(width * h, hmax), 8)
-        out[i] = grid[:rows, :cols]
-    return out
+        rows, cols = _cdiv(_cdiv(height * v, vmax), 8), _cdiv(_cdiv(width * h, hmax), 8)
+        places[i] = (first, mcu_y * v, mcu_x * h, rows, cols)
+        dv, dh = np.divmod(np.arange(v * h), h)  # block order within the MCU
+        grid_row = mcu_row[:, None] * v + dv
+        grid_col = mcu_col[:, None] * h + dh
+        pieces.append(first + grid_row * (mcu_x * h) + grid_col)
+        first += mcu_x * mcu_y * v * h
+    dest = np.concatenate(pieces, axis=1).reshape(-1).astype(np.int32)
+    return dest, tuple(places[i] for i in range(len(factors)))
 
 
-def _reconstruct(coef, tables, geometry, xp):
+def _component_blocks(coef, stride: int, place, xp):
+    """One component's real blocks `(8, 8, rows, cols)` (natural order) from the flat
+    coefficients `decode_scan` returns."""
+    first, grid_rows, grid_cols, rows, cols = place
+    planar = coef[: 64 * stride].reshape(64, stride)[:, first : first + grid_rows * grid_cols]
+    return planar.reshape(8, 8, grid_rows, grid_cols)[:, :, :rows, :cols]
+
+
+def _reconstruct(coef, stride, tables, geometry, xp):
     """Coefficients -> uint8 pixels: dequantize, islow IDCT, upsample, colour."""
-    height, width, factors, _, colour = geometry
-    coef = coef.astype(np.int64 if xp is np else np.int32)
-    per_comp = _blocks_per_component(coef, geometry, xp)
+    height, width, factors, places, colour = geometry
     n = len(factors)
+    blocks = [_component_blocks(coef, stride, places[i], xp).astype(_int(xp)) for i in range(n)]
+    if xp is np:
+        blocks = [b.transpose(2, 3, 0, 1) for b in blocks]
     planes = L.inverse(
-        [per_comp[i] for i in range(n)], list(factors), [tables[i] for i in range(n)],
-        height, width, xp,
+        blocks, list(factors), [tables[i] for i in range(n)], height, width, xp,
+        planar=xp is not np,
     )  # fmt: skip
     if colour == "grey":
         return planes[0].astype(np.uint8)
@@ -322,12 +331,16 @@ def _reconstruct(coef, tables, geometry, xp):
     return L.ycc_to_rgb(*planes, xp)
 
 
+def _int(xp):
+    return np.int64 if xp is np else np.int32
+
+
 @functools.lru_cache(maxsize=32)
-def _compiled_reconstruction(geometry):
+def _compiled_reconstruction(geometry, stride: int):
     import jax
     import jax.numpy as jnp
 
-    return jax.jit(lambda coef, tables: _reconstruct(coef, tables, geometry, jnp))
+    return jax.jit(lambda coef, tables: _reconstruct(coef, stride, tables, geometry, jnp))
 
 
 def decode(data, *, max_pixels: int | None = MAX_PIXELS) -> np.ndarray:

@@ -168,6 +168,22 @@ def idct_islow(coefficients, table, xp):
     cols = xp.stack(_idct_1d([deq[..., i, :] for i in range(8)]), axis=-2)
     cols = _descale(cols, CONST_BITS - PASS1_BITS, xp)
     out = xp.stack(_idct_1d([cols[..., j] for j in range(8)]), axis=-1)
+    return _range_limit(out, xp)
+
+
+def idct_islow_planar(coefficients, table, xp):
+    """`idct_islow` for blocks laid out `(8, 8, ...)` (the blocks along the trailing,
+    contiguous axes: every butterfly step is one long elementwise operation)."""
+    table = xp.asarray(table).astype(coefficients.dtype)
+    deq = (coefficients * table.reshape(8, 8, *([1] * (coefficients.ndim - 2)))).astype(_int(xp))
+    cols = xp.stack(_idct_1d([deq[i] for i in range(8)]), axis=0)
+    cols = _descale(cols, CONST_BITS - PASS1_BITS, xp)
+    out = xp.stack(_idct_1d([cols[:, j] for j in range(8)]), axis=1)
+    return _range_limit(out, xp)
+
+
+def _range_limit(out, xp):
+    """jidctint.c's final descale and range limit of the second pass's output."""
     out = _descale(out, CONST_BITS + PASS1_BITS + 3, xp).astype(_int(xp))
     # libjpeg indexes its range-limit table with `x & 1023`: wraps far outliers.
     wrapped = xp.bitwise_and(out, 1023)
@@ -381,13 +397,26 @@ def forward(planes, factors, tables, xp, *, traced_tables: bool = False):
     return out
 
 
-def inverse(coefficients, factors, tables, height: int, width: int, xp):
+def inverse(coefficients, factors, tables, height: int, width: int, xp, *, planar=False):
     """Quantized coefficient blocks per component -> integer planes `(H, W)`, as
-    libjpeg decodes them (islow IDCT, fancy upsampling)."""
+    libjpeg decodes them (islow IDCT, fancy upsampling).
+
+    `coefficients` are `(rows, cols, 8, 8)` per component, or with `planar`
+    `(8, 8, rows, cols)` (JAX only: that layout is several times faster in XLA; the
+    samples are put into image order by a separate transpose, which XLA would
+    otherwise fuse into the IDCT and run far slower)."""
     hmax, vmax, layout = component_layout(height, width, factors)
     planes = []
     for coefs, table, ((h, v), (h_c, w_c), _) in zip(coefficients, tables, layout, strict=True):
-        samples = from_blocks(idct_islow(coefs, table, xp), xp)[..., :h_c, :w_c]
+        if planar:
+            import jax.lax as lax
+
+            samples = lax.optimization_barrier(idct_islow_planar(coefs, table, xp))
+            rows, cols = samples.shape[2:]
+            samples = xp.transpose(samples, (2, 0, 3, 1)).reshape(8 * rows, 8 * cols)
+            samples = lax.optimization_barrier(samples[:h_c, :w_c])
+        else:
+            samples = from_blocks(idct_islow(coefs, table, xp), xp)[..., :h_c, :w_c]
         fh, fv = hmax // h, vmax // v
         if (fh, fv) in ((1, 1), (2, 1), (1, 2), (2, 2)):
             full = upsample_fancy(samples, fh, fv, xp)
