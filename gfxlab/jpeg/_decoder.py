@@ -4,11 +4,11 @@ The markers are parsed in Python; the scan is entropy-decoded by `_entropy` (by 
 compiled loop of `_entropy_xla` for large images) straight into a planar coefficient
 array: per component, each of the 64 coefficient positions is one contiguous row over
 all its blocks, the layout in which XLA runs the IDCT fastest (the coefficients stay
-on the device between the two compiled programs). The pixels are then reconstructed
-exactly as
+on the device). The pixels are then reconstructed exactly as
 libjpeg-turbo does by default (islow IDCT, fancy upsampling, its colour tables),
-vectorized over all blocks: NumPy for small images, one compiled XLA program per
-image geometry for large ones.
+vectorized over all blocks: NumPy for small images; for large ones a compiled IDCT,
+a NumPy transpose into image order and a compiled upsampling and colour conversion,
+per image geometry.
 
 The colour space follows libjpeg's rules (`jdapimin.c`): one component is grey;
 three are YCbCr when a JFIF marker is present, else as an Adobe APP14 marker's
@@ -272,8 +272,8 @@ def _decode_image(state: _State, sos: bytes, data: bytes) -> np.ndarray:
     tables = np.stack([state.quant[c[3]] for c in comps]).astype(np.int32)
     geometry = (height, width, factors, places, state.colour())
     if height * width >= _COMPILE_FROM_PIXELS:
-        return np.asarray(_compiled_reconstruction(geometry, stride)(coef, tables))
-    return _reconstruct(np.asarray(coef), stride, tables, geometry, np)
+        return _reconstruct_compiled(coef, stride, tables, geometry)
+    return _reconstruct(np.asarray(coef), stride, tables, geometry)
 
 
 @functools.lru_cache(maxsize=64)
@@ -313,17 +313,19 @@ def _component_blocks(coef, stride: int, place, xp):
     return planar.reshape(8, 8, grid_rows, grid_cols)[:, :, :rows, :cols]
 
 
-def _reconstruct(coef, stride, tables, geometry, xp):
-    """Coefficients -> uint8 pixels: dequantize, islow IDCT, upsample, colour."""
+def _reconstruct(coef, stride, tables, geometry):
+    """Coefficients -> uint8 pixels in NumPy: dequantize, islow IDCT, upsample, colour."""
     height, width, factors, places, colour = geometry
     n = len(factors)
-    blocks = [_component_blocks(coef, stride, places[i], xp).astype(_int(xp)) for i in range(n)]
-    if xp is np:
-        blocks = [b.transpose(2, 3, 0, 1) for b in blocks]
-    planes = L.inverse(
-        blocks, list(factors), [tables[i] for i in range(n)], height, width, xp,
-        planar=xp is not np,
-    )  # fmt: skip
+    blocks = [
+        _component_blocks(coef, stride, places[i], np).astype(np.int64).transpose(2, 3, 0, 1)
+        for i in range(n)
+    ]
+    planes = L.inverse(blocks, list(factors), [tables[i] for i in range(n)], height, width, np)
+    return _colour(planes, colour, np)
+
+
+def _colour(planes, colour: str, xp):
     if colour == "grey":
         return planes[0].astype(np.uint8)
     if colour == "rgb":
@@ -331,16 +333,52 @@ def _reconstruct(coef, stride, tables, geometry, xp):
     return L.ycc_to_rgb(*planes, xp)
 
 
-def _int(xp):
-    return np.int64 if xp is np else np.int32
+def _reconstruct_compiled(coef, stride, tables, geometry):
+    """`_reconstruct` as two compiled programs: the IDCT on the planar blocks (uint8
+    samples, blocks along the trailing axes), then upsampling and colour on planes in
+    image order; NumPy transposes the samples in between (XLA's transpose of this
+    layout costs several times the IDCT)."""
+    height, width, factors, places, colour = geometry
+    _, _, layout = L.component_layout(height, width, factors)
+    samples = []
+    for block_samples, (_, (h_c, w_c), _) in zip(
+        _compiled_idct(geometry, stride)(coef, tables), layout, strict=True
+    ):
+        block_samples = np.asarray(block_samples)
+        rows, cols = block_samples.shape[2:]
+        plane = block_samples.transpose(2, 0, 3, 1).reshape(8 * rows, 8 * cols)
+        samples.append(np.ascontiguousarray(plane[:h_c, :w_c]))
+    return np.asarray(_compiled_finish(geometry)(samples))
 
 
 @functools.lru_cache(maxsize=32)
-def _compiled_reconstruction(geometry, stride: int):
+def _compiled_idct(geometry, stride: int):
     import jax
     import jax.numpy as jnp
 
-    return jax.jit(lambda coef, tables: _reconstruct(coef, stride, tables, geometry, jnp))
+    def idct(coef, tables):
+        return [
+            L.idct_islow_planar(
+                _component_blocks(coef, stride, place, jnp).astype(jnp.int32), tables[i], jnp
+            ).astype(jnp.uint8)
+            for i, place in enumerate(geometry[3])
+        ]
+
+    return jax.jit(idct)
+
+
+@functools.lru_cache(maxsize=32)
+def _compiled_finish(geometry):
+    import jax
+    import jax.numpy as jnp
+
+    height, width, factors, _, colour = geometry
+
+    def finish(samples):
+        planes = L.upsample_planes(samples, factors, height, width, jnp)
+        return _colour(planes, colour, jnp)
+
+    return jax.jit(finish)
 
 
 def decode(data, *, max_pixels: int | None = MAX_PIXELS) -> np.ndarray:

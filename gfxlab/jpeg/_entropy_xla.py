@@ -5,7 +5,8 @@ compiling would cost more than it saves), written as a `lax.while_loop` with one
 iteration per Huffman symbol: XLA compiles the loop into native code, a few
 nanoseconds per symbol instead of a Python interpreter's hundreds.
 
-- The bits are read through a 32-bit window per byte (`b[i] << 24 | ... | b[i + 3]`);
+- The bits are read through a 32-bit window per byte (`b[i] << 24 | ... | b[i + 3]`,
+  built inside the program from the padded bytes);
   shifted by the bit offset it holds at least 25 valid bits: a 16-bit code lookup,
   then the extra bits (at most 11) after the code.
 - Each Huffman table is a 16-bit lookup table whose entry packs the code length, the
@@ -63,10 +64,23 @@ def _bucket(n: int, minimum: int) -> int:
     return -(-n // step) * step
 
 
-def _windows(stream: np.ndarray, size: int) -> np.ndarray:
-    padded = np.zeros(size + 3, np.uint32)
+def _padded(stream: np.ndarray, size: int) -> np.ndarray:
+    """The scan's bytes, zero-padded to `size` (the program builds its bit windows)."""
+    padded = np.zeros(size, np.uint8)
     padded[: stream.size] = stream
-    return (padded[:-3] << 24) | (padded[1:-2] << 16) | (padded[2:-1] << 8) | padded[3:]
+    return padded
+
+
+@functools.lru_cache(maxsize=16)
+def _device_luts(tables: tuple):
+    """The stacked lookup tables of `tables` (`HuffmanTable`s, which the decoder caches
+    by their spec: the key holds them, so their ids stay theirs), on the device."""
+    import jax
+
+    luts = [_lut(t) for t in tables]
+    # 4 tables (256 KB each) cover the usual files; at most 8 distinct in a scan
+    luts += [luts[0]] * ((4 if len(luts) <= 4 else 8) - len(luts))
+    return jax.device_put(np.stack(luts))
 
 
 def decode_scan_compiled(stream, starts, plan, n_mcu: int, restart: int, dest: np.ndarray):
@@ -82,11 +96,10 @@ def decode_scan_compiled(stream, starts, plan, n_mcu: int, restart: int, dest: n
         for row, table in ((1, dc), (2, ac)):
             if id(table) not in index:
                 index[id(table)] = len(tables)
-                tables.append(_lut(table))
+                tables.append(table)
             ids[row, j] = index[id(table)]
         ids[0, j] = component
-    # 4 tables (256 KB each) cover the usual files; at most 8 distinct in a scan
-    luts = np.stack(tables + [tables[0]] * ((4 if len(tables) <= 4 else 8) - len(tables)))
+    luts = _device_luts(tuple(tables))
     stride = _bucket(n_blocks, 1 << 10)
     out_size = stride * 64
     destinations = np.zeros(stride, np.int32)
@@ -95,7 +108,7 @@ def decode_scan_compiled(stream, starts, plan, n_mcu: int, restart: int, dest: n
     # a byte per coefficient, past quality 95 of most photos): files of one image size
     # then share the program whatever their quality.
     needed = stream.size + 8
-    window = _windows(stream, out_size if needed <= out_size else 1 << (needed - 1).bit_length())
+    window = _padded(stream, out_size if needed <= out_size else 1 << (needed - 1).bit_length())
     starts = np.asarray(starts + [starts[-1]] * 2, np.int32)
     seg = np.zeros(_bucket(starts.size, 8), np.int32)
     seg[: starts.size] = starts
@@ -155,7 +168,9 @@ def _program(out_size: int):
                 status, pred, out)  # fmt: skip
 
     @jax.jit
-    def run(window, luts, ids, seg, dest, sizes):
+    def run(stream, luts, ids, seg, dest, sizes):
+        b = jnp.concatenate([stream, jnp.zeros(3, jnp.uint8)]).astype(jnp.uint32)
+        window = b[:-3] << 24 | b[1:-2] << 16 | b[2:-1] << 8 | b[3:]
         zero = jnp.int32(0)
         state = (zero, zero, zero, zero, zero, zero, zero, jnp.zeros(4, jnp.int32),
                  jnp.zeros(out_size + 1, jnp.int16))  # fmt: skip

@@ -397,30 +397,27 @@ def forward(planes, factors, tables, xp, *, traced_tables: bool = False):
     return out
 
 
-def inverse(coefficients, factors, tables, height: int, width: int, xp, *, planar=False):
-    """Quantized coefficient blocks per component -> integer planes `(H, W)`, as
-    libjpeg decodes them (islow IDCT, fancy upsampling).
+def inverse(coefficients, factors, tables, height: int, width: int, xp):
+    """Quantized coefficient blocks `(rows, cols, 8, 8)` per component -> integer
+    planes `(H, W)`, as libjpeg decodes them (islow IDCT, fancy upsampling)."""
+    _, _, layout = component_layout(height, width, factors)
+    samples = [
+        from_blocks(idct_islow(coefs, table, xp), xp)[..., :h_c, :w_c]
+        for coefs, table, (_, (h_c, w_c), _) in zip(coefficients, tables, layout, strict=True)
+    ]
+    return upsample_planes(samples, factors, height, width, xp)
 
-    `coefficients` are `(rows, cols, 8, 8)` per component, or with `planar`
-    `(8, 8, rows, cols)` (JAX only: that layout is several times faster in XLA; the
-    samples are put into image order by a separate transpose, which XLA would
-    otherwise fuse into the IDCT and run far slower)."""
-    hmax, vmax, layout = component_layout(height, width, factors)
+
+def upsample_planes(samples, factors, height: int, width: int, xp):
+    """Each component's samples (its real, downsampled size) -> `(H, W)` planes, as
+    libjpeg upsamples them (fancy where it can, else replication)."""
+    hmax, vmax, _ = component_layout(height, width, factors)
     planes = []
-    for coefs, table, ((h, v), (h_c, w_c), _) in zip(coefficients, tables, layout, strict=True):
-        if planar:
-            import jax.lax as lax
-
-            samples = lax.optimization_barrier(idct_islow_planar(coefs, table, xp))
-            rows, cols = samples.shape[2:]
-            samples = xp.transpose(samples, (2, 0, 3, 1)).reshape(8 * rows, 8 * cols)
-            samples = lax.optimization_barrier(samples[:h_c, :w_c])
-        else:
-            samples = from_blocks(idct_islow(coefs, table, xp), xp)[..., :h_c, :w_c]
+    for plane, (h, v) in zip(samples, factors, strict=True):
         fh, fv = hmax // h, vmax // v
         if (fh, fv) in ((1, 1), (2, 1), (1, 2), (2, 2)):
-            full = upsample_fancy(samples, fh, fv, xp)
+            full = upsample_fancy(plane, fh, fv, xp)
         else:
-            full = xp.repeat(xp.repeat(samples, fv, axis=-2), fh, axis=-1)
+            full = xp.repeat(xp.repeat(plane, fv, axis=-2), fh, axis=-1)
         planes.append(pad_edge(full, height, width, xp)[..., :height, :width])
     return planes
