@@ -393,7 +393,7 @@ def decode(data, *, max_pixels: int | None = MAX_PIXELS) -> np.ndarray:
     ends after a complete scan without its EOI marker decodes with a warning.
 
     Images of 1024 blocks or more (64 K pixels) are entropy-decoded by a compiled XLA
-    loop and reconstructed by a compiled program: the first file of a size bucket
+    loop and reconstructed by two compiled programs: the first file of a size bucket
     compiles them (seconds), later files of similar size reuse them.
 
     **Arguments:**
