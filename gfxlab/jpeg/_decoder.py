@@ -1,11 +1,14 @@
 """`decode`: baseline JPEG files, pixel for pixel as libjpeg-turbo decodes them.
 
-The markers are parsed in Python; the scan is entropy-decoded by `_entropy` into a
-preallocated coefficient array (by the compiled loop of `_entropy_xla` for large
-images); the pixels are then reconstructed exactly as
+The markers are parsed in Python; the scan is entropy-decoded by `_entropy` (by the
+compiled loop of `_entropy_xla` for large images) straight into a planar coefficient
+array: per component, each of the 64 coefficient positions is one contiguous row over
+all its blocks, the layout in which XLA runs the IDCT fastest (the coefficients stay
+on the device). The pixels are then reconstructed exactly as
 libjpeg-turbo does by default (islow IDCT, fancy upsampling, its colour tables),
-vectorized over all blocks: NumPy for small images, one compiled XLA program per
-image geometry for large ones.
+vectorized over all blocks: NumPy for small images; for large ones a compiled IDCT,
+a NumPy transpose into image order and a compiled upsampling and colour conversion,
+per image geometry.
 
 The colour space follows libjpeg's rules (`jdapimin.c`): one component is grey;
 three are YCbCr when a JFIF marker is present, else as an Adobe APP14 marker's
@@ -262,59 +265,67 @@ def _scan_plan(state: _State, sos: bytes):
 def _decode_image(state: _State, sos: bytes, data: bytes) -> np.ndarray:
     height, width, comps = state.frame
     order, plan = _scan_plan(state, sos)
-    hmax = max(c[1] for c in comps)
-    vmax = max(c[2] for c in comps)
-    if len(order) == 1:
-        _, h, v, _ = comps[order[0]]
-        n_mcu = _cdiv(_cdiv(height * v, vmax), 8) * _cdiv(_cdiv(width * h, hmax), 8)
-    else:
-        n_mcu = _cdiv(width, 8 * hmax) * _cdiv(height, 8 * vmax)
-    coef = decode_scan(data, plan, n_mcu, state.restart)
+    factors = tuple((c[1], c[2]) for c in comps)
+    dest, places = _destinations(height, width, factors, tuple(order))
+    n_mcu = dest.size // len(plan)
+    coef, stride = decode_scan(data, plan, n_mcu, state.restart, dest)
     tables = np.stack([state.quant[c[3]] for c in comps]).astype(np.int32)
-    geometry = (height, width, tuple((c[1], c[2]) for c in comps), tuple(order), state.colour())
+    geometry = (height, width, factors, places, state.colour())
     if height * width >= _COMPILE_FROM_PIXELS:
-        return np.asarray(_compiled_reconstruction(geometry)(coef, tables))
-    return _reconstruct(coef, tables, geometry, np)
+        return _reconstruct_compiled(coef, stride, tables, geometry)
+    return _reconstruct(np.asarray(coef), stride, tables, geometry)
 
 
-def _blocks_per_component(coef, geometry, xp):
-    """Scan-order zig-zag blocks `(N, 64)` -> per frame component, natural order,
-    `(rows, cols, 8, 8)` real blocks."""
-    height, width, factors, order, _ = geometry
-    natural = coef[:, np.argsort(ZIGZAG)]
+@functools.lru_cache(maxsize=64)
+def _destinations(height: int, width: int, factors: tuple, order: tuple):
+    """Where the scan's blocks go: `dest[b]` for the block at scan position `b` (a
+    planar index: the components one after the other, each block row-major over the
+    component's block grid, MCU padding included) and, per frame component,
+    `(first index, grid rows, grid cols, rows, cols)` of its real blocks (a scan of
+    one component: a frame of one component)."""
     hmax = max(f[0] for f in factors)
     vmax = max(f[1] for f in factors)
-    out = {}
+    places, pieces, first = {}, [], 0  # by frame component
     if len(order) == 1:
         h, v = factors[order[0]]
-        rows = _cdiv(_cdiv(height * v, vmax), 8)
-        cols = _cdiv(_cdiv(width * h, hmax), 8)
-        out[order[0]] = natural.reshape(rows, cols, 8, 8)
-        return out
+        rows, cols = _cdiv(_cdiv(height * v, vmax), 8), _cdiv(_cdiv(width * h, hmax), 8)
+        return np.arange(rows * cols, dtype=np.int32), ((0, rows, cols, rows, cols),)
     mcu_x, mcu_y = _cdiv(width, 8 * hmax), _cdiv(height, 8 * vmax)
-    per_mcu = natural.reshape(mcu_y * mcu_x, -1, 64)
-    first = 0
+    mcu_row, mcu_col = np.divmod(np.arange(mcu_x * mcu_y), mcu_x)
     for i in order:
         h, v = factors[i]
-        part = per_mcu[:, first : first + h * v].reshape(mcu_y, mcu_x, v, h, 8, 8)
-        first += h * v
-        grid = part.transpose(0, 2, 1, 3, 4, 5).reshape(mcu_y * v, mcu_x * h, 8, 8)
-        rows = _cdiv(_cdiv(height * v, vmax), 8)
-        cols = _cdiv(_cdiv(width * h, hmax), 8)
-        out[i] = grid[:rows, :cols]
-    return out
+        rows, cols = _cdiv(_cdiv(height * v, vmax), 8), _cdiv(_cdiv(width * h, hmax), 8)
+        places[i] = (first, mcu_y * v, mcu_x * h, rows, cols)
+        dv, dh = np.divmod(np.arange(v * h), h)  # block order within the MCU
+        grid_row = mcu_row[:, None] * v + dv
+        grid_col = mcu_col[:, None] * h + dh
+        pieces.append(first + grid_row * (mcu_x * h) + grid_col)
+        first += mcu_x * mcu_y * v * h
+    dest = np.concatenate(pieces, axis=1).reshape(-1).astype(np.int32)
+    return dest, tuple(places[i] for i in range(len(factors)))
 
 
-def _reconstruct(coef, tables, geometry, xp):
-    """Coefficients -> uint8 pixels: dequantize, islow IDCT, upsample, colour."""
-    height, width, factors, _, colour = geometry
-    coef = coef.astype(np.int64 if xp is np else np.int32)
-    per_comp = _blocks_per_component(coef, geometry, xp)
+def _component_blocks(coef, stride: int, place, xp):
+    """One component's real blocks `(8, 8, rows, cols)` (natural order) from the flat
+    coefficients `decode_scan` returns."""
+    first, grid_rows, grid_cols, rows, cols = place
+    planar = coef[: 64 * stride].reshape(64, stride)[:, first : first + grid_rows * grid_cols]
+    return planar.reshape(8, 8, grid_rows, grid_cols)[:, :, :rows, :cols]
+
+
+def _reconstruct(coef, stride, tables, geometry):
+    """Coefficients -> uint8 pixels in NumPy: dequantize, islow IDCT, upsample, colour."""
+    height, width, factors, places, colour = geometry
     n = len(factors)
-    planes = L.inverse(
-        [per_comp[i] for i in range(n)], list(factors), [tables[i] for i in range(n)],
-        height, width, xp,
-    )  # fmt: skip
+    blocks = [
+        _component_blocks(coef, stride, places[i], np).astype(np.int64).transpose(2, 3, 0, 1)
+        for i in range(n)
+    ]
+    planes = L.inverse(blocks, list(factors), [tables[i] for i in range(n)], height, width, np)
+    return _colour(planes, colour, np)
+
+
+def _colour(planes, colour: str, xp):
     if colour == "grey":
         return planes[0].astype(np.uint8)
     if colour == "rgb":
@@ -322,12 +333,52 @@ def _reconstruct(coef, tables, geometry, xp):
     return L.ycc_to_rgb(*planes, xp)
 
 
+def _reconstruct_compiled(coef, stride, tables, geometry):
+    """`_reconstruct` as two compiled programs: the IDCT on the planar blocks (uint8
+    samples, blocks along the trailing axes), then upsampling and colour on planes in
+    image order; NumPy transposes the samples in between (XLA's transpose of this
+    layout costs several times the IDCT)."""
+    height, width, factors, places, colour = geometry
+    _, _, layout = L.component_layout(height, width, factors)
+    samples = []
+    for block_samples, (_, (h_c, w_c), _) in zip(
+        _compiled_idct(geometry, stride)(coef, tables), layout, strict=True
+    ):
+        block_samples = np.asarray(block_samples)
+        rows, cols = block_samples.shape[2:]
+        plane = block_samples.transpose(2, 0, 3, 1).reshape(8 * rows, 8 * cols)
+        samples.append(np.ascontiguousarray(plane[:h_c, :w_c]))
+    return np.asarray(_compiled_finish(geometry)(samples))
+
+
 @functools.lru_cache(maxsize=32)
-def _compiled_reconstruction(geometry):
+def _compiled_idct(geometry, stride: int):
     import jax
     import jax.numpy as jnp
 
-    return jax.jit(lambda coef, tables: _reconstruct(coef, tables, geometry, jnp))
+    def idct(coef, tables):
+        return [
+            L.idct_islow_planar(
+                _component_blocks(coef, stride, place, jnp).astype(jnp.int32), tables[i], jnp
+            ).astype(jnp.uint8)
+            for i, place in enumerate(geometry[3])
+        ]
+
+    return jax.jit(idct)
+
+
+@functools.lru_cache(maxsize=32)
+def _compiled_finish(geometry):
+    import jax
+    import jax.numpy as jnp
+
+    height, width, factors, _, colour = geometry
+
+    def finish(samples):
+        planes = L.upsample_planes(samples, factors, height, width, jnp)
+        return _colour(planes, colour, jnp)
+
+    return jax.jit(finish)
 
 
 def decode(data, *, max_pixels: int | None = MAX_PIXELS) -> np.ndarray:
@@ -342,7 +393,7 @@ def decode(data, *, max_pixels: int | None = MAX_PIXELS) -> np.ndarray:
     ends after a complete scan without its EOI marker decodes with a warning.
 
     Images of 1024 blocks or more (64 K pixels) are entropy-decoded by a compiled XLA
-    loop and reconstructed by a compiled program: the first file of a size bucket
+    loop and reconstructed by two compiled programs: the first file of a size bucket
     compiles them (seconds), later files of similar size reuse them.
 
     **Arguments:**

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gfxlab.jpeg._tables import huffman_codes
+from gfxlab.jpeg._tables import ZIGZAG, huffman_codes
 
 LOOKAHEAD = 12  # bits per first-level lookup
 # From this many blocks on (512 x 512 grey: 4096), the scan is decoded by the compiled
@@ -126,7 +126,7 @@ def windows(stream: np.ndarray) -> memoryview:
     return memoryview(out)
 
 
-def decode_scan(data: bytes, plan, n_mcu: int, restart: int) -> np.ndarray:
+def decode_scan(data: bytes, plan, n_mcu: int, restart: int, dest: np.ndarray):
     """Entropy-decode one interleaved (or single-component) baseline scan.
 
     **Arguments:**
@@ -134,11 +134,14 @@ def decode_scan(data: bytes, plan, n_mcu: int, restart: int) -> np.ndarray:
     - `data`: the entropy-coded bytes (stuffed, with RST markers).
     - `plan`: per block of an MCU, `(component, dc HuffmanTable, ac HuffmanTable)`.
     - `n_mcu`: MCUs in the scan; `restart`: the restart interval (0: none).
+    - `dest`: `(blocks,)` where each block (in scan order) goes in the output.
 
     **Returns:**
 
-    `(blocks, 64)` int16 quantized coefficients in scan order, zig-zag order within a
-    block, DC values already predicted (wrapped to 16 bits as libjpeg's `JCOEF`).
+    `(coefficients, stride)`: flat int16 quantized coefficients, natural position `n`
+    of the block at scan position `b` at `n * stride + dest[b]` (a device array from
+    the compiled loop, else NumPy), DC values already predicted (wrapped to 16 bits
+    as libjpeg's `JCOEF`).
     """
     stream, starts = segments(data)
     n_bits = starts[-1]
@@ -152,13 +155,15 @@ def decode_scan(data: bytes, plan, n_mcu: int, restart: int) -> np.ndarray:
     if n_blocks >= COMPILE_FROM_BLOCKS:
         from gfxlab.jpeg._entropy_xla import _MESSAGES, decode_scan_compiled
 
-        status, bit, coef = decode_scan_compiled(stream, starts, plan, n_mcu, restart, n_blocks)
+        status, bit, coef, stride = decode_scan_compiled(stream, starts, plan, n_mcu, restart, dest)
         if status:
             raise JPEGError(_MESSAGES[status].format(bit))
-        return coef
+        return coef, stride
     coef = np.zeros((n_blocks, 64), np.int16)
     _run(windows(stream), starts, n_mcu, restart, plan, memoryview(coef.reshape(-1)))
-    return coef
+    planar = np.empty((64, n_blocks), np.int16)
+    planar[ZIGZAG[:, None], dest[None, :]] = coef.T
+    return planar.reshape(-1), n_blocks
 
 
 def _run(window, starts, n_mcu, restart, plan, out) -> None:  # noqa: C901 (the hot loop)

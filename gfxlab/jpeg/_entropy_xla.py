@@ -5,7 +5,8 @@ compiling would cost more than it saves), written as a `lax.while_loop` with one
 iteration per Huffman symbol: XLA compiles the loop into native code, a few
 nanoseconds per symbol instead of a Python interpreter's hundreds.
 
-- The bits are read through a 32-bit window per byte (`b[i] << 24 | ... | b[i + 3]`);
+- The bits are read through a 32-bit window per byte (`b[i] << 24 | ... | b[i + 3]`,
+  built inside the program from the padded bytes);
   shifted by the bit offset it holds at least 25 valid bits: a 16-bit code lookup,
   then the extra bits (at most 11) after the code.
 - Each Huffman table is a 16-bit lookup table whose entry packs the code length, the
@@ -25,6 +26,8 @@ from __future__ import annotations
 import functools
 
 import numpy as np
+
+from gfxlab.jpeg._tables import ZIGZAG
 
 _MAX_PLAN = 10  # blocks per MCU (T.81's limit)
 _MESSAGES = {
@@ -61,42 +64,60 @@ def _bucket(n: int, minimum: int) -> int:
     return -(-n // step) * step
 
 
-def _windows(stream: np.ndarray, size: int) -> np.ndarray:
-    padded = np.zeros(size + 3, np.uint32)
+def _padded(stream: np.ndarray, size: int) -> np.ndarray:
+    """The scan's bytes, zero-padded to `size` (the program builds its bit windows)."""
+    padded = np.zeros(size, np.uint8)
     padded[: stream.size] = stream
-    return (padded[:-3] << 24) | (padded[1:-2] << 16) | (padded[2:-1] << 8) | padded[3:]
+    return padded
 
 
-def decode_scan_compiled(stream, starts, plan, n_mcu: int, restart: int, n_blocks: int):
-    """`_entropy.decode_scan`'s work after `segments`: `(status, bit, coefficients)`
-    with `coefficients` `(n_blocks, 64)` int16 (status 0: decoded)."""
+@functools.lru_cache(maxsize=16)
+def _device_luts(tables: tuple):
+    """The stacked lookup tables of `tables` (`HuffmanTable`s, which the decoder caches
+    by their spec: the key holds them, so their ids stay theirs), on the device."""
+    import jax
+
+    luts = [_lut(t) for t in tables]
+    # 4 tables (256 KB each) cover the usual files; at most 8 distinct in a scan
+    luts += [luts[0]] * ((4 if len(luts) <= 4 else 8) - len(luts))
+    return jax.device_put(np.stack(luts))
+
+
+def decode_scan_compiled(stream, starts, plan, n_mcu: int, restart: int, dest: np.ndarray):
+    """`_entropy.decode_scan`'s work after `segments`: `(status, bit, coefficients,
+    stride)` (status 0: decoded). `coefficients` is a flat int16 device array in which
+    natural position `n` of the block at scan position `b` sits at
+    `n * stride + dest[b]` (one slot past them is scratch); it stays on the device, for
+    the compiled reconstruction."""
+    n_blocks = dest.size
     tables, index = [], {}
     ids = np.zeros((3, _MAX_PLAN), np.int32)
     for j, (component, dc, ac) in enumerate(plan):
         for row, table in ((1, dc), (2, ac)):
             if id(table) not in index:
                 index[id(table)] = len(tables)
-                tables.append(_lut(table))
+                tables.append(table)
             ids[row, j] = index[id(table)]
         ids[0, j] = component
-    # 4 tables (256 KB each) cover the usual files; at most 8 distinct in a scan
-    luts = np.stack(tables + [tables[0]] * ((4 if len(tables) <= 4 else 8) - len(tables)))
-    out_size = _bucket(n_blocks, 1 << 10) * 64
+    luts = _device_luts(tuple(tables))
+    stride = _bucket(n_blocks, 1 << 10)
+    out_size = stride * 64
+    destinations = np.zeros(stride, np.int32)
+    destinations[:n_blocks] = dest
     # The window's length follows the image, not the file, where the file fits (up to
     # a byte per coefficient, past quality 95 of most photos): files of one image size
     # then share the program whatever their quality.
     needed = stream.size + 8
-    window = _windows(stream, out_size if needed <= out_size else 1 << (needed - 1).bit_length())
+    window = _padded(stream, out_size if needed <= out_size else 1 << (needed - 1).bit_length())
     starts = np.asarray(starts + [starts[-1]] * 2, np.int32)
     seg = np.zeros(_bucket(starts.size, 8), np.int32)
     seg[: starts.size] = starts
     seg[starts.size :] = starts[-1]
     program = _program(out_size)
     status, bit, coef = program(
-        window, luts, ids, seg, np.array([len(plan), n_mcu, restart], np.int32)
+        window, luts, ids, seg, destinations, np.array([len(plan), n_mcu, restart], np.int32)
     )
-    status, bit = int(status), int(bit)
-    return status, bit, np.asarray(coef)[: n_blocks * 64].reshape(n_blocks, 64)
+    return int(status), int(bit), coef, stride
 
 
 @functools.lru_cache(maxsize=32)
@@ -105,7 +126,10 @@ def _program(out_size: int):
     import jax.numpy as jnp
     from jax import lax
 
-    def step(luts, window, ids, seg, sizes, state):
+    stride = out_size // 64
+    natural = jnp.asarray(ZIGZAG, jnp.int32)
+
+    def step(luts, window, ids, seg, dest, sizes, state):
         p, k, blk, j, mcu, segment, status, pred, out = state
         per_mcu, _, restart = sizes[0], sizes[1], sizes[2]
         dc = k == 0
@@ -121,7 +145,7 @@ def _program(out_size: int):
         dc_value = pred[c] + value
         pred = jnp.where(dc, pred.at[c].set(dc_value), pred)
         k_next = jnp.where(dc, 1, jnp.where(run == 0, 64, k + run))
-        slot = blk * 64 + jnp.where(dc, 0, k_next - 1)
+        slot = natural[jnp.where(dc, 0, k_next - 1)] * stride + dest[blk]
         written = jnp.where(dc, dc_value, value).astype(jnp.int16)  # wraps like JCOEF
         bad = jnp.where(e == 0, jnp.where(dc, 1, 2), jnp.where(k_next > 64, 3, 0))
         write = (bad == 0) & ((run > 0) | dc)  # an in-place update (no copy of `out`)
@@ -144,13 +168,15 @@ def _program(out_size: int):
                 status, pred, out)  # fmt: skip
 
     @jax.jit
-    def run(window, luts, ids, seg, sizes):
+    def run(stream, luts, ids, seg, dest, sizes):
+        b = jnp.concatenate([stream, jnp.zeros(3, jnp.uint8)]).astype(jnp.uint32)
+        window = b[:-3] << 24 | b[1:-2] << 16 | b[2:-1] << 8 | b[3:]
         zero = jnp.int32(0)
         state = (zero, zero, zero, zero, zero, zero, zero, jnp.zeros(4, jnp.int32),
                  jnp.zeros(out_size + 1, jnp.int16))  # fmt: skip
         state = lax.while_loop(
             lambda s: (s[6] == 0) & (s[4] < sizes[1]),
-            lambda s: step(luts, window, ids, seg, sizes, s),
+            lambda s: step(luts, window, ids, seg, dest, sizes, s),
             state,
         )
         return state[6], state[0], state[8]

@@ -168,6 +168,22 @@ def idct_islow(coefficients, table, xp):
     cols = xp.stack(_idct_1d([deq[..., i, :] for i in range(8)]), axis=-2)
     cols = _descale(cols, CONST_BITS - PASS1_BITS, xp)
     out = xp.stack(_idct_1d([cols[..., j] for j in range(8)]), axis=-1)
+    return _range_limit(out, xp)
+
+
+def idct_islow_planar(coefficients, table, xp):
+    """`idct_islow` for blocks laid out `(8, 8, ...)` (the blocks along the trailing,
+    contiguous axes: every butterfly step is one long elementwise operation)."""
+    table = xp.asarray(table).astype(coefficients.dtype)
+    deq = (coefficients * table.reshape(8, 8, *([1] * (coefficients.ndim - 2)))).astype(_int(xp))
+    cols = xp.stack(_idct_1d([deq[i] for i in range(8)]), axis=0)
+    cols = _descale(cols, CONST_BITS - PASS1_BITS, xp)
+    out = xp.stack(_idct_1d([cols[:, j] for j in range(8)]), axis=1)
+    return _range_limit(out, xp)
+
+
+def _range_limit(out, xp):
+    """jidctint.c's final descale and range limit of the second pass's output."""
     out = _descale(out, CONST_BITS + PASS1_BITS + 3, xp).astype(_int(xp))
     # libjpeg indexes its range-limit table with `x & 1023`: wraps far outliers.
     wrapped = xp.bitwise_and(out, 1023)
@@ -382,16 +398,26 @@ def forward(planes, factors, tables, xp, *, traced_tables: bool = False):
 
 
 def inverse(coefficients, factors, tables, height: int, width: int, xp):
-    """Quantized coefficient blocks per component -> integer planes `(H, W)`, as
-    libjpeg decodes them (islow IDCT, fancy upsampling)."""
-    hmax, vmax, layout = component_layout(height, width, factors)
+    """Quantized coefficient blocks `(rows, cols, 8, 8)` per component -> integer
+    planes `(H, W)`, as libjpeg decodes them (islow IDCT, fancy upsampling)."""
+    _, _, layout = component_layout(height, width, factors)
+    samples = [
+        from_blocks(idct_islow(coefs, table, xp), xp)[..., :h_c, :w_c]
+        for coefs, table, (_, (h_c, w_c), _) in zip(coefficients, tables, layout, strict=True)
+    ]
+    return upsample_planes(samples, factors, height, width, xp)
+
+
+def upsample_planes(samples, factors, height: int, width: int, xp):
+    """Each component's samples (its real, downsampled size) -> `(H, W)` planes, as
+    libjpeg upsamples them (fancy where it can, else replication)."""
+    hmax, vmax, _ = component_layout(height, width, factors)
     planes = []
-    for coefs, table, ((h, v), (h_c, w_c), _) in zip(coefficients, tables, layout, strict=True):
-        samples = from_blocks(idct_islow(coefs, table, xp), xp)[..., :h_c, :w_c]
+    for plane, (h, v) in zip(samples, factors, strict=True):
         fh, fv = hmax // h, vmax // v
         if (fh, fv) in ((1, 1), (2, 1), (1, 2), (2, 2)):
-            full = upsample_fancy(samples, fh, fv, xp)
+            full = upsample_fancy(plane, fh, fv, xp)
         else:
-            full = xp.repeat(xp.repeat(samples, fv, axis=-2), fh, axis=-1)
+            full = xp.repeat(xp.repeat(plane, fv, axis=-2), fh, axis=-1)
         planes.append(pad_edge(full, height, width, xp)[..., :height, :width])
     return planes
