@@ -276,6 +276,31 @@ def _wrap_parameters(u: jax.Array, breaks: jax.Array) -> jax.Array:
 # ----------------------------------------------------------------------------- fitted knots
 
 
+def _knots_field(knots) -> jax.Array:
+    """The `base_knots` converter of `BSpline` and `NURBS`."""
+    return as_float(knots, "knots")
+
+
+def _check_knot_fields(curve, closed: bool = False) -> None:
+    """The `__check_init__` of a curve's knots against its degree and control points
+    (concrete knots; traced ones are checked when the curve is evaluated)."""
+    n = curve.control_points.shape[-2]
+    if is_traced(curve.base_knots):
+        return
+    if closed:
+        _check_breakpoints(curve.base_knots, n)
+    else:
+        _check_knots(curve.base_knots, curve.degree, n)
+
+
+def _initial_logits(knots: jax.Array, a: int, b: int) -> jax.Array:
+    """`_knot_logits` of knots that `__check_init__` has not seen yet: it never raises
+    (knots of a wrong shape give zeros, which `__check_init__` then refuses)."""
+    if knots.ndim != 1 or knots.shape[0] <= b:
+        return jnp.zeros((b - a,), knots.dtype)
+    return _knot_logits(knots, a, b)
+
+
 def _span_range(degree: int, num_control_points: int, closed: bool) -> tuple[int, int]:
     """Indices `(a, b)` of the knots bounding the parameter range: `(p, n)` for an open
     B-spline's knots, `(0, n)` for a closed one's breakpoints."""
