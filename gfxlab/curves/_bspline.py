@@ -33,7 +33,7 @@ from ._knots import (
     _check_knots,
     _initial_logits,
     _knots_field,
-    _knots_from_logits,
+    _knots_in_use,
     _periodic_knots,
     _span_range,
     _spans,
@@ -393,11 +393,8 @@ class BSpline(eqx.Module):
     @property
     def knots(self) -> Float[Array, " k"]:
         """The knots in use (a closed curve's breakpoints)."""
-        frame = jax.lax.stop_gradient(self.base_knots)
-        if self.knot_logits is None:
-            return frame
         a, b = _span_range(self.degree, self.control_points.shape[-2], self.closed)
-        return _knots_from_logits(frame, self.knot_logits, a, b)
+        return _knots_in_use(self.base_knots, self.knot_logits, a, b)
 
     @property
     def parameter_range(self) -> tuple[Float[Array, ""], Float[Array, ""]]:

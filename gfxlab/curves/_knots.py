@@ -215,16 +215,6 @@ def _cell_index(u: jax.Array, origin, inverse_width, b1, b2, cells: int) -> jax.
     return 3 * cell + above_b1.astype(jnp.int32) + above_b2.astype(jnp.int32)
 
 
-def _knots_for(cp: jax.Array, degree: int, knots) -> tuple[jax.Array, int]:
-    n, p = _check_degree(cp.shape[-2], degree)
-    if knots is None:
-        knots = clamped_knots(n, p, dtype=cp.dtype)
-    knots = as_float(knots, "knots")
-    if not is_traced(knots):
-        knots = _check_knots(knots, p, n)
-    return knots, p
-
-
 # ----------------------------------------------------------------------------- closed
 
 
@@ -291,6 +281,13 @@ def _check_knot_fields(curve, closed: bool = False) -> None:
         _check_breakpoints(curve.base_knots, n)
     else:
         _check_knots(curve.base_knots, curve.degree, n)
+
+
+def _knots_in_use(base_knots: jax.Array, knot_logits, a: int, b: int) -> jax.Array:
+    """The `knots` of a `BSpline` or `NURBS`: the given knots (behind `stop_gradient`),
+    with the span `[t_a, t_b]` split by `knot_logits` when those are fitted."""
+    frame = jax.lax.stop_gradient(base_knots)
+    return frame if knot_logits is None else _knots_from_logits(frame, knot_logits, a, b)
 
 
 def _initial_logits(knots: jax.Array, a: int, b: int) -> jax.Array:

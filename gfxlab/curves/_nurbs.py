@@ -21,7 +21,7 @@ from ._knots import (
     _check_knots,
     _initial_logits,
     _knots_field,
-    _knots_from_logits,
+    _knots_in_use,
     clamped_knots,
     parameter_range,
 )
@@ -160,11 +160,8 @@ class NURBS(eqx.Module):
     @property
     def knots(self) -> Float[Array, " n+p+1"]:
         """The knots in use."""
-        frame = jax.lax.stop_gradient(self.base_knots)
-        if self.knot_logits is None:
-            return frame
         n = self.control_points.shape[-2]
-        return _knots_from_logits(frame, self.knot_logits, self.degree, n)
+        return _knots_in_use(self.base_knots, self.knot_logits, self.degree, n)
 
     @property
     def parameter_range(self) -> tuple[Float[Array, ""], Float[Array, ""]]:
