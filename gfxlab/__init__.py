@@ -2,6 +2,11 @@
 
 Submodules are imported on first use (`gfxlab.transforms`, `gfxlab.viewing`, ...), so
 `import gfxlab` stays light: it never imports colour-science, matplotlib or Pillow.
+
+Two helpers for calling gfxlab inside your own `jax.jit` (also imported on first use):
+`gfxlab.checked_jit`, a drop-in `jax.jit` whose failed value checks raise the same
+`ValueError` as an eager call, and `gfxlab.check_message(err)`, the message of a failed
+check carried by any exception JAX or Equinox raises for it.
 """
 
 from __future__ import annotations
@@ -30,10 +35,17 @@ _SUBMODULES = (
     "grading",
 )
 
-__all__ = ["__version__", "data_file", *_SUBMODULES]
+# Public helpers of the shared check layer, imported on first use like the submodules.
+_HELPERS = {"checked_jit": "_checks", "check_message": "_checks"}
+
+__all__ = ["__version__", "data_file", *_HELPERS, *_SUBMODULES]
 
 
 def __getattr__(name: str):
+    if name in _HELPERS:
+        value = getattr(importlib.import_module(f"{__name__}.{_HELPERS[name]}"), name)
+        globals()[name] = value
+        return value
     if name in _SUBMODULES:
         module = importlib.import_module(f"{__name__}.{name}")
         globals()[name] = module

@@ -13,6 +13,8 @@ At file boundaries images are `uint8`; inside differentiable code they are float
 
 from __future__ import annotations
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -197,8 +199,8 @@ def to_float(image, name: str = "image", *, dtype=None) -> jax.Array:
     if image is None:
         raise TypeError(f"`{name}` must be an image array, got None")
     arr = jnp.asarray(image)
-    if arr.dtype == jnp.uint8:
-        out = arr.astype(dtype or jnp.result_type(float)) / 255.0
+    if arr.dtype == jnp.uint8:  # a look-up: exactly `level / 255` (a division may round off)
+        out = jnp.asarray(_unit_levels(jnp.dtype(dtype or jnp.result_type(float))))[arr]
     elif arr.dtype == jnp.bool_:
         out = arr.astype(dtype or jnp.result_type(float))
     elif jnp.issubdtype(arr.dtype, jnp.floating):
@@ -206,3 +208,9 @@ def to_float(image, name: str = "image", *, dtype=None) -> jax.Array:
     else:
         raise TypeError(f"`{name}` must be a float image in [0, 1] or uint8, got dtype {arr.dtype}")
     return out if dtype is None else out.astype(dtype)
+
+
+@functools.cache
+def _unit_levels(dtype) -> np.ndarray:
+    """`level / 255` for the 256 levels of a `uint8` sample, correctly rounded to `dtype`."""
+    return (np.arange(256) / 255.0).astype(dtype)

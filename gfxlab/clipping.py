@@ -25,7 +25,7 @@ The exam prints the codes of the `EI` walkthrough in its source's bit order
 (top, bottom, right, left): there `E = 0100` means "below" and `I = 1010` "above and
 right". Read in the LRBT order used everywhere else (and here) the same points have
 `E = 0010`, `I = 0101`, `H = 0100`; the edges used, bottom then top then right, are the
-same. `SEED_EXAMPLE` gives concrete coordinates for the walkthrough and
+same. `WALKTHROUGH_EXAMPLE` gives concrete coordinates for the walkthrough and
 `cohen_sutherland_trace` reproduces it step by step.
 
 Three line clippers and one polygon clipper:
@@ -72,7 +72,7 @@ __all__ = [
     "BOTTOM",
     "TOP",
     "EDGE_ORDER",
-    "SEED_EXAMPLE",
+    "WALKTHROUGH_EXAMPLE",
     "outcode",
     "cohen_sutherland",
     "cohen_sutherland_steps",
@@ -98,7 +98,7 @@ _EDGE_BITS = {"top": TOP, "bottom": BOTTOM, "right": RIGHT, "left": LEFT}
 #: `EI` (E = 0010 below, I = 0101 above-right) is clipped at the bottom edge in F, then
 #: at the top edge in H (= 0100, right), then at the right edge in G, and `FG` is
 #: accepted.
-SEED_EXAMPLE = {
+WALKTHROUGH_EXAMPLE = {
     "window": (2.0, 2.0, 10.0, 8.0),
     "A": (6.0, 5.0),
     "B": (3.0, 8.0),
@@ -276,7 +276,7 @@ def _cohen_sutherland_steps(segments, w):
 def cohen_sutherland_trace(segment, window) -> list[dict]:
     """Every iteration of Cohen-Sutherland on one segment, for teaching (eager, concrete).
 
-    Uses the same iteration as `cohen_sutherland`. With `SEED_EXAMPLE`'s window, segment
+    Uses the same iteration as `cohen_sutherland`. With `WALKTHROUGH_EXAMPLE`'s window, segment
     `(A, D)` gives a clip at the top edge (new point B) and an accept; `(E, I)` gives
     clips at the bottom (F), top (H) and right (G) edges and an accept.
 

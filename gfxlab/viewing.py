@@ -33,7 +33,9 @@ from ._checks import (
     checked_jit,
     checked_unit,
     common_finite,
+    common_float,
     finite_float,
+    is_traced,
     safe_norm,
     static_shape,
     value_error_if,
@@ -152,22 +154,23 @@ def _frustum(left, right, bottom, top, near, far):
     return jnp.stack([jnp.stack(r, -1) for r in rows], -2)
 
 
-def _lens(fov_y, aspect, near, far):
-    """The four lens parameters, finite and in range (each error names its argument)."""
-    fov_y, aspect, near, far = common_finite(
-        fov_y, aspect, near, far, names=("fov_y", "aspect", "near", "far")
-    )
-    return _lens_checks(fov_y, aspect, near, far)
-
-
 def _lens_checks(fov_y, aspect, near, far):
-    fov_y = check_range(
+    fov_y, aspect, near = _check_fov_y(fov_y), _check_aspect(aspect), _check_near(near)
+    return fov_y, aspect, _check_range(near, far, "near", "far"), far
+
+
+def _check_fov_y(fov_y):
+    return check_range(
         fov_y, "fov_y", minimum=0, maximum=jnp.pi, lower_open=True, upper_open=True, what="radians"
     )
-    aspect = check_range(aspect, "aspect", minimum=0, lower_open=True, what="width / height")
-    near = value_error_if(near, near <= 0, "`near` must be positive for a perspective projection")
-    near = _check_range(near, far, "near", "far")
-    return fov_y, aspect, near, far
+
+
+def _check_aspect(aspect):
+    return check_range(aspect, "aspect", minimum=0, lower_open=True, what="width / height")
+
+
+def _check_near(near):
+    return value_error_if(near, near <= 0, "`near` must be positive for a perspective projection")
 
 
 def perspective(fov_y, aspect, near, far) -> Float[Array, "4 4"]:
@@ -279,6 +282,38 @@ def orthographic_view(name: str) -> Float[Array, "4 4"]:
     return plane_projection("z") @ view
 
 
+def _vector_field(name: str):
+    def convert(v):
+        v = finite_float(v, name)
+        check_last_dim(v, name, (3,), "a 3-vector")
+        return v
+
+    convert.__name__ = f"_as_{name}"
+    return convert
+
+
+def _scalar_field(name: str, check):
+    def convert(x):
+        x = finite_float(x, name)
+        return x if check is None else check(x)
+
+    convert.__name__ = f"_as_{name}"
+    return convert
+
+
+def _rotation_field(rotation):
+    return None if rotation is None else finite_float(rotation, "rotation")
+
+
+def _representation_field(representation: str) -> str:
+    if not isinstance(representation, str) or representation not in tf.ROTATION_REPRESENTATIONS:
+        raise ValueError(
+            f"`representation` must be one of {sorted(tf.ROTATION_REPRESENTATIONS)}, "
+            f"got {representation!r:.40}"
+        )
+    return representation
+
+
 class Camera(eqx.Module):
     """A pinhole camera: pose (`eye`, `target`, `up`) and a perspective lens.
 
@@ -292,15 +327,17 @@ class Camera(eqx.Module):
     construction.
     """
 
-    eye: Float[Array, "3"]
-    target: Float[Array, "3"]
-    up: Float[Array, "3"]
-    fov_y: Float[Array, ""]
-    aspect: Float[Array, ""]
-    near: Float[Array, ""]
-    far: Float[Array, ""]
-    rotation: Float[Array, " k"] | None = None
-    representation: str = eqx.field(static=True, default="axis_angle")
+    eye: Float[Array, "3"] = eqx.field(converter=_vector_field("eye"))
+    target: Float[Array, "3"] = eqx.field(converter=_vector_field("target"))
+    up: Float[Array, "3"] = eqx.field(converter=_vector_field("up"))
+    fov_y: Float[Array, ""] = eqx.field(converter=_scalar_field("fov_y", _check_fov_y))
+    aspect: Float[Array, ""] = eqx.field(converter=_scalar_field("aspect", _check_aspect))
+    near: Float[Array, ""] = eqx.field(converter=_scalar_field("near", _check_near))
+    far: Float[Array, ""] = eqx.field(converter=_scalar_field("far", None))
+    rotation: Float[Array, " k"] | None = eqx.field(default=None, converter=_rotation_field)
+    representation: str = eqx.field(
+        static=True, default="axis_angle", converter=_representation_field
+    )
 
     def __init__(
         self,
@@ -331,25 +368,35 @@ class Camera(eqx.Module):
 
         Every argument is checked (eagerly and under jit): finite values,
         `0 < fov_y < pi`, `aspect > 0`, `0 < near < far`, `target != eye`, `up` not
-        parallel to the viewing direction; each error names its argument.
+        parallel to the viewing direction; each error names its argument (the relations
+        between traced arguments where the camera's matrices are made, `look_at` and
+        `perspective`).
         """
-        eye = finite_float(eye, "eye")
-        check_last_dim(eye, "eye", (3,), "a 3-vector")
-        self.fov_y, self.aspect, self.near, self.far = _lens(fov_y, aspect, near, far)
-        if not isinstance(representation, str) or representation not in tf.ROTATION_REPRESENTATIONS:
-            raise ValueError(
-                f"`representation` must be one of {sorted(tf.ROTATION_REPRESENTATIONS)}, "
-                f"got {representation!r:.40}"
-            )
-        self.representation = representation
+        # Only what depends on several arguments is made here (the converters and
+        # `__check_init__` check the fields): one dtype for the pose and one for the lens,
+        # and with `rotation`, `target` and `up` from its frame.
+        eye = _vector_field("eye")(eye)
+        self.fov_y, self.aspect, self.near, self.far = common_float(
+            fov_y, aspect, near, far, names=("fov_y", "aspect", "near", "far")
+        )
+        self.representation, self.rotation = representation, rotation
         if rotation is None:
-            self.rotation = None
-            self.eye, self.target, self.up = _checked_pose(eye, target, up)
+            self.eye, self.target, self.up = common_float(
+                eye, target, up, names=("eye", "target", "up")
+            )
             return
-        self.rotation = finite_float(rotation, "rotation")
-        frame = _rotation_matrix(self.rotation, representation, "rotation")
+        rotation = _rotation_field(rotation)
+        frame = _rotation_matrix(rotation, _representation_field(representation), "rotation")
         frame = frame.astype(eye.dtype)
         self.eye, self.target, self.up = eye, eye - frame[..., :, 2], frame[..., :, 1]
+
+    def __check_init__(self):
+        """Relations between fields, for concrete values: `near < far`, and a pose with a
+        viewing direction and an `up` off it."""
+        if not is_traced((self.near, self.far)):
+            _check_range(self.near, self.far, "near", "far")
+        if self.rotation is None and not is_traced((self.eye, self.target, self.up)):
+            _check_pose(self.eye, self.target, self.up)
 
     @classmethod
     def from_rotation(cls, eye, rotation, representation: str = "axis_angle", **lens) -> Camera:
@@ -405,19 +452,14 @@ _camera_project = checked_jit(lambda camera, points: tf.apply(camera.matrix(), p
 _camera_depth = checked_jit(lambda camera, points: -tf.apply(camera.view_matrix(), points)[..., 2])
 
 
-def _checked_pose(eye, target, up):
-    """`eye`, `target`, `up` as finite 3-vectors with a well-defined camera frame."""
-    eye, target, up = common_finite(eye, target, up, names=("eye", "target", "up"))
-    for name, v in (("target", target), ("up", up)):
-        check_last_dim(v, name, (3,), "a 3-vector")
+def _check_pose(eye, target, up) -> None:
+    """Raise `ValueError` for a camera frame that is not defined (concrete values)."""
     forward = target - eye
-    target = value_error_if(
+    value_error_if(
         target, safe_norm(forward) == 0, "`target` equals `eye`: the viewing direction is undefined"
     )
-    side = safe_norm(jnp.cross(forward, up))
-    up = value_error_if(
+    value_error_if(
         up,
-        side <= 1e-12 * safe_norm(up) * safe_norm(forward),
+        safe_norm(jnp.cross(forward, up)) <= 1e-12 * safe_norm(up) * safe_norm(forward),
         "`up` must be non-zero and not parallel to the viewing direction `target - eye`",
     )
-    return eye, target, up

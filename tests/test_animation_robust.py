@@ -347,7 +347,7 @@ VALUE_CASES = {
 
 @pytest.mark.parametrize("case", sorted(VALUE_CASES))
 def test_bad_values_name_the_argument_eagerly_and_under_jit(case, maybe_jit):
-    from gfxlab._checks import check_message
+    from gfxlab import check_message
 
     fn, bad, message = VALUE_CASES[case]
     with pytest.raises(Exception) as info:  # ValueError eagerly, JaxRuntimeError under jit

@@ -9,6 +9,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from jax.test_util import check_grads
 
+import gfxlab
 from gfxlab import clipping
 
 # JAX reports an exception raised while a compiled program runs as JaxRuntimeError or,
@@ -19,12 +20,12 @@ JIT_ERRORS = (jax.errors.JaxRuntimeError, ValueError)
 WINDOW = (2.0, 2.0, 10.0, 8.0)
 
 
-def test_outcodes_nine_regions_as_in_the_seed_table(maybe_jit):
+def test_outcodes_nine_regions_as_in_the_exam_table(maybe_jit):
     xs, ys = (0.0, 6.0, 12.0), (10.0, 5.0, 0.0)  # left/inside/right, top/inside/bottom
     grid = jnp.array([[(x, y) for x in xs] for y in ys])
     codes = maybe_jit(clipping.outcode)(grid, jnp.asarray(WINDOW))
-    seed_table = [[0b1001, 0b0001, 0b0101], [0b1000, 0b0000, 0b0100], [0b1010, 0b0010, 0b0110]]
-    np.testing.assert_array_equal(codes, seed_table)
+    exam_table = [[0b1001, 0b0001, 0b0101], [0b1000, 0b0000, 0b0100], [0b1010, 0b0010, 0b0110]]
+    np.testing.assert_array_equal(codes, exam_table)
     # Points on the boundary are inside.
     edges = jnp.array([[2.0, 2.0], [10.0, 8.0], [2.0, 5.0], [6.0, 8.0]])
     np.testing.assert_array_equal(clipping.outcode(edges, WINDOW), 0)
@@ -138,8 +139,8 @@ def test_trivial_accept_returns_segment_unchanged_and_clip_stays_inside(coords):
         assert np.all(clipping.outcode(clipped[0], WINDOW) == 0)
 
 
-def test_seed_walkthrough_ad_and_ei():
-    s = clipping.SEED_EXAMPLE
+def test_exam_walkthrough_ad_and_ei():
+    s = clipping.WALKTHROUGH_EXAMPLE
     window = s["window"]
     assert clipping.EDGE_ORDER == ("top", "bottom", "right", "left")
     code = {name: int(clipping.outcode(jnp.array(s[name]), window)) for name in "ABDEFGHI"}
@@ -154,7 +155,7 @@ def test_seed_walkthrough_ad_and_ei():
         "I": 0b0101,
     }
 
-    # The named points are where the seed says: B on the top edge of AD, C on its left
+    # The named points are where the exam says: B on the top edge of AD, C on its left
     # edge line, F on the bottom edge of EI, H on its top edge line, G on its right edge.
     def on_line(p, a, b):
         (px, py), (ax, ay), (bx, by) = p, a, b
@@ -369,10 +370,9 @@ def test_non_finite_and_huge_inputs_are_rejected_naming_the_argument(call, error
     ],
 )
 def test_non_finite_inputs_under_jit_carry_the_same_message(fn, bad, message):
-    from gfxlab import _checks
 
     with pytest.raises(JIT_ERRORS) as info:
         jax.jit(fn)(bad)
-    assert _checks.check_message(info.value).startswith(message)
+    assert gfxlab.check_message(info.value).startswith(message)
     with pytest.raises(ValueError, match=f"^{message}"):
-        _checks.checked_jit(fn)(bad)
+        gfxlab.checked_jit(fn)(bad)

@@ -18,7 +18,7 @@ names the argument. Outcomes:
 The sweep runs eagerly in a subprocess whose address space is capped (`MEMORY_LIMIT`),
 so a huge allocation ends in `MemoryError` (counted unclear) instead of exhausting the
 machine; a sample of the cases that fail clearly is rerun under `jax.jit`, where the
-error must carry the same message (`gfxlab._checks.check_message`).
+error must carry the same message (`gfxlab.check_message`).
 
 Failures of other modules that are known are listed in `contract_known_failures.txt`
 (one `module.function parameter case` per line); any other failure fails the test.
@@ -483,7 +483,7 @@ def _names(message: str, name: str) -> bool:
 
 def _classify(call, name: str, case: str):
     """(outcome, detail) of one call."""
-    from gfxlab._checks import check_message
+    from gfxlab import check_message
 
     # CPU time, not wall time: the machine may be busy; a wall-clock bound backs it up.
     signal.setitimer(signal.ITIMER_PROF, CALL_SECONDS)

@@ -9,8 +9,7 @@ import pytest
 import scipy.interpolate as si
 from jax.test_util import check_grads
 
-from gfxlab import curves
-from gfxlab._checks import checked_jit
+from gfxlab import checked_jit, curves
 from gfxlab.fit import fit
 
 

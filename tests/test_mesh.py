@@ -309,7 +309,7 @@ def test_sizes_and_arguments_are_checked(call, error, message):
 
 
 def test_normals_reject_nan_vertices_eagerly_and_under_jit(maybe_jit):
-    from gfxlab._checks import check_message
+    from gfxlab import check_message
 
     vertices = jnp.eye(3).at[1, 1].set(jnp.nan)
     for fn in (M.face_normals, M.vertex_normals):
@@ -354,7 +354,7 @@ def test_torus_tube_thinner_than_its_ring_and_revolve_needs_a_radius():
 
 def test_mesh_colors_and_texture_must_be_in_0_1_eagerly_and_under_jit(maybe_jit):
     """The documented ranges: colours and texture values in [0, 1]."""
-    from gfxlab._checks import check_message
+    from gfxlab import check_message
 
     vertices, faces = jnp.eye(3), jnp.array([[0, 1, 2]])
     uvs = {"uvs": jnp.zeros((3, 2)), "uv_faces": faces}

@@ -10,6 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from jax.test_util import check_grads
 
+import gfxlab
 from gfxlab import transforms as tf
 
 # JAX reports an exception raised while a compiled program runs as JaxRuntimeError or,
@@ -277,8 +278,6 @@ def test_degenerate_window_raises_under_jit():
 
 from scipy.spatial.transform import Rotation  # noqa: E402
 
-from gfxlab import _checks  # noqa: E402
-
 rotvecs = hnp.arrays(
     np.float64, (3,), elements=st.floats(-3.0, 3.0, allow_nan=False, allow_infinity=False)
 )
@@ -467,6 +466,6 @@ def test_bad_parameters_are_rejected_naming_the_argument(call, error, message):
 def test_bad_parameters_are_rejected_under_jit_with_the_same_message(fn, bad, message):
     with pytest.raises(JIT_ERRORS) as info:
         jax.jit(fn)(bad)
-    assert _checks.check_message(info.value).startswith(message)
+    assert gfxlab.check_message(info.value).startswith(message)
     with pytest.raises(ValueError, match=f"^{message}"):
-        _checks.checked_jit(fn)(bad)
+        gfxlab.checked_jit(fn)(bad)

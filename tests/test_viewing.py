@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from jax.test_util import check_grads
 
+import gfxlab
 from gfxlab import transforms as tf
 from gfxlab import viewing as vw
 
@@ -193,7 +194,6 @@ def test_bad_value_raises_under_jit():
 
 # --- cameras from rotation parametrisations (issue 18) ---------------------------------
 
-from gfxlab import _checks  # noqa: E402
 from gfxlab.fit import fit  # noqa: E402
 
 CUBE = jnp.array(
@@ -355,6 +355,6 @@ def test_bad_camera_parameters_name_the_argument(call, error, message):
 def test_bad_camera_parameters_under_jit_same_message(fn, bad, message):
     with pytest.raises(JIT_ERRORS) as info:
         jax.jit(fn)(bad)
-    assert _checks.check_message(info.value).startswith(message)
+    assert gfxlab.check_message(info.value).startswith(message)
     with pytest.raises(ValueError, match=f"^{message}"):
-        _checks.checked_jit(fn)(bad)
+        gfxlab.checked_jit(fn)(bad)

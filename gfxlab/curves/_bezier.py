@@ -257,16 +257,17 @@ def _derivative_kernel(cp: jax.Array, order: int) -> jax.Array:
     return cp
 
 
+def _bezier_points(control_points: Float[ArrayLike, "*batch n+1 d"]) -> jax.Array:
+    return _control_points(control_points)
+
+
 class Bezier(eqx.Module):
     """A Bezier curve as a pytree, so `gfxlab.fit.fit` can fit its control points.
 
     **Fields:** `control_points` `(..., n+1, d)`. Call with `u` `(N,)` in `[0, 1]`.
     """
 
-    control_points: Float[Array, "*batch n+1 d"]
-
-    def __init__(self, control_points: Float[ArrayLike, "*batch n+1 d"]):
-        self.control_points = _control_points(control_points)
+    control_points: Float[Array, "*batch n+1 d"] = eqx.field(converter=_bezier_points)
 
     @property
     def degree(self) -> int:

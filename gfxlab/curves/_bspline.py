@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._checks import as_float, check_shape, static_int
+from .._checks import check_shape, static_int
 from ._bezier import _bernstein
 from ._common import (
     _control_points,
@@ -29,10 +29,11 @@ from ._knots import (
     _check_breakpoints,
     _check_degree,
     _check_in_range,
+    _check_knot_fields,
     _check_knots,
-    _knot_logits,
-    _knots_for,
-    _knots_from_logits,
+    _initial_logits,
+    _knots_field,
+    _knots_in_use,
     _periodic_knots,
     _span_range,
     _spans,
@@ -349,8 +350,8 @@ class BSpline(eqx.Module):
     The property `knots` is the knot vector in use. Call with `u` `(N,)`.
     """
 
-    control_points: Float[Array, "*batch n d"]
-    base_knots: Float[Array, " k"]
+    control_points: Float[Array, "*batch n d"] = eqx.field(converter=_control_points)
+    base_knots: Float[Array, " k"] = eqx.field(converter=_knots_field)
     knot_logits: Float[Array, " s"] | None
     degree: int = eqx.field(static=True)
     fit_knots: bool = eqx.field(static=True)
@@ -365,20 +366,24 @@ class BSpline(eqx.Module):
         fit_knots: bool = False,
         closed: bool = False,
     ):
+        # The fields computed from several arguments (default knots, `knot_logits`) are
+        # made here, from the checked degree they need; `__check_init__` checks the knots.
         cp = _control_points(control_points)
-        self.closed = bool(closed)
-        if self.closed:
-            n, p = _check_degree(cp.shape[-2], degree)
-            if knots is None:
-                knots = periodic_breakpoints(n, dtype=cp.dtype)
-            knots = _check_breakpoints(as_float(knots, "knots"), n)
-            self.base_knots, self.degree = knots, p
-        else:
-            self.base_knots, self.degree = _knots_for(cp, degree, knots)
-        self.control_points = cp
-        self.fit_knots = bool(fit_knots)
-        a, b = _span_range(self.degree, cp.shape[-2], self.closed)
-        self.knot_logits = _knot_logits(self.base_knots, a, b) if self.fit_knots else None
+        n, p = _check_degree(cp.shape[-2], degree)
+        self.closed, self.fit_knots = bool(closed), bool(fit_knots)
+        if knots is None:
+            knots = (
+                periodic_breakpoints(n, dtype=cp.dtype)
+                if self.closed
+                else clamped_knots(n, p, dtype=cp.dtype)
+            )
+        self.control_points, self.base_knots, self.degree = cp, _knots_field(knots), p
+        a, b = _span_range(p, n, self.closed)
+        self.knot_logits = _initial_logits(self.base_knots, a, b) if self.fit_knots else None
+
+    def __check_init__(self):
+        """The knots against the degree and the number of control points."""
+        _check_knot_fields(self, self.closed)
 
     def fixed_fields(self) -> tuple[str, ...]:
         """Fields `gfxlab.fit` holds fixed: the given knots (with `fit_knots=True` the
@@ -388,11 +393,8 @@ class BSpline(eqx.Module):
     @property
     def knots(self) -> Float[Array, " k"]:
         """The knots in use (a closed curve's breakpoints)."""
-        frame = jax.lax.stop_gradient(self.base_knots)
-        if self.knot_logits is None:
-            return frame
         a, b = _span_range(self.degree, self.control_points.shape[-2], self.closed)
-        return _knots_from_logits(frame, self.knot_logits, a, b)
+        return _knots_in_use(self.base_knots, self.knot_logits, a, b)
 
     @property
     def parameter_range(self) -> tuple[Float[Array, ""], Float[Array, ""]]:

@@ -7,6 +7,7 @@ import math
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import ArrayLike, Float
 
 from .._checks import as_float, common_float, is_traced, value_error_if
 
@@ -90,7 +91,9 @@ def _check_unit_interval(u: jax.Array, name: str = "u") -> jax.Array:
     )
 
 
-def _control_points(control_points, name: str = "control_points") -> jax.Array:
+def _control_points(
+    control_points: Float[ArrayLike, "*batch n d"], name: str = "control_points"
+) -> jax.Array:
     cp = as_float(control_points, name)
     if cp.ndim < 2 or cp.shape[-2] < 1:
         raise ValueError(

@@ -77,30 +77,33 @@ def _circle_kernel(center, radius, t) -> jax.Array:
     return _ellipse_kernel(center, radii, jnp.zeros_like(radius), t)
 
 
+def _finite_field(name: str, shape: tuple):
+    def convert(x):
+        x = as_float(x, name)
+        check_shape(x, name, shape)
+        return _require(x, f"`{name}` must be finite (no NaN or inf)", _not_finite)
+
+    convert.__name__ = f"_as_{name}"
+    return convert
+
+
 class Ellipse(eqx.Module):
     """The parametric ellipse of `ellipse` as a pytree.
 
-    **Fields:** `center` `(2,)`, `radii` `(2,)` (semi-axes `rx`, `ry`), `angle` (radians).
-    Call with `t` `(N,)` to get `(N, 2)` points.
+    **Fields:** `center` `(2,)`, `radii` `(2,)` (semi-axes `rx`, `ry`), `angle` (radians),
+    all finite and of one float dtype. Call with `t` `(N,)` to get `(N, 2)` points.
     """
 
-    center: Float[Array, "2"]
-    radii: Float[Array, "2"]
-    angle: Float[Array, ""]
+    center: Float[Array, "2"] = eqx.field(converter=_finite_field("center", (2,)))
+    radii: Float[Array, "2"] = eqx.field(converter=_finite_field("radii", (2,)))
+    angle: Float[Array, ""] = eqx.field(converter=_finite_field("angle", ()))
 
     def __init__(self, center, radii, angle=0.0):
+        # Only the common dtype is made here (it depends on all three arguments); the
+        # converters check each field.
         self.center, self.radii, self.angle = common_float(
             center, radii, angle, names=("center", "radii", "angle")
         )  # JAX arrays: the fields are the leaves `gfxlab.fit` fits
-        check_shape(self.center, "center", (2,))
-        check_shape(self.radii, "radii", (2,))
-        check_shape(self.angle, "angle", ())
-        self.center, self.radii, self.angle = (
-            _require(x, f"`{name}` must be finite (no NaN or inf)", _not_finite)
-            for x, name in zip(
-                (self.center, self.radii, self.angle), ("center", "radii", "angle"), strict=True
-            )
-        )
 
     def __call__(self, t: Float[ArrayLike, " N"]) -> Float[Array, "N 2"]:
         # The fields were checked at construction; inside a fit (where they are traced)

@@ -215,16 +215,6 @@ def _cell_index(u: jax.Array, origin, inverse_width, b1, b2, cells: int) -> jax.
     return 3 * cell + above_b1.astype(jnp.int32) + above_b2.astype(jnp.int32)
 
 
-def _knots_for(cp: jax.Array, degree: int, knots) -> tuple[jax.Array, int]:
-    n, p = _check_degree(cp.shape[-2], degree)
-    if knots is None:
-        knots = clamped_knots(n, p, dtype=cp.dtype)
-    knots = as_float(knots, "knots")
-    if not is_traced(knots):
-        knots = _check_knots(knots, p, n)
-    return knots, p
-
-
 # ----------------------------------------------------------------------------- closed
 
 
@@ -274,6 +264,38 @@ def _wrap_parameters(u: jax.Array, breaks: jax.Array) -> jax.Array:
 
 
 # ----------------------------------------------------------------------------- fitted knots
+
+
+def _knots_field(knots) -> jax.Array:
+    """The `base_knots` converter of `BSpline` and `NURBS`."""
+    return as_float(knots, "knots")
+
+
+def _check_knot_fields(curve, closed: bool = False) -> None:
+    """The `__check_init__` of a curve's knots against its degree and control points
+    (concrete knots; traced ones are checked when the curve is evaluated)."""
+    n = curve.control_points.shape[-2]
+    if is_traced(curve.base_knots):
+        return
+    if closed:
+        _check_breakpoints(curve.base_knots, n)
+    else:
+        _check_knots(curve.base_knots, curve.degree, n)
+
+
+def _knots_in_use(base_knots: jax.Array, knot_logits, a: int, b: int) -> jax.Array:
+    """The `knots` of a `BSpline` or `NURBS`: the given knots (behind `stop_gradient`),
+    with the span `[t_a, t_b]` split by `knot_logits` when those are fitted."""
+    frame = jax.lax.stop_gradient(base_knots)
+    return frame if knot_logits is None else _knots_from_logits(frame, knot_logits, a, b)
+
+
+def _initial_logits(knots: jax.Array, a: int, b: int) -> jax.Array:
+    """`_knot_logits` of knots that `__check_init__` has not seen yet: it never raises
+    (knots of a wrong shape give zeros, which `__check_init__` then refuses)."""
+    if knots.ndim != 1 or knots.shape[0] <= b:
+        return jnp.zeros((b - a,), knots.dtype)
+    return _knot_logits(knots, a, b)
 
 
 def _span_range(degree: int, num_control_points: int, closed: bool) -> tuple[int, int]:

@@ -17,10 +17,11 @@ from ._common import _control_points, _floats, _not_finite, _require
 from ._knots import (
     _check_degree,
     _check_in_range,
+    _check_knot_fields,
     _check_knots,
-    _knot_logits,
-    _knots_for,
-    _knots_from_logits,
+    _initial_logits,
+    _knots_field,
+    _knots_in_use,
     clamped_knots,
     parameter_range,
 )
@@ -57,13 +58,24 @@ def nurbs(
 
 
 def _check_weights(weights: jax.Array, cp: jax.Array) -> jax.Array:
+    _check_weight_shape(weights, cp)
+    return _positive_weights(weights)
+
+
+def _check_weight_shape(weights: jax.Array, cp: jax.Array) -> None:
     if weights.shape != cp.shape[:-1]:
         raise ValueError(
             f"`weights` must have shape {tuple(cp.shape[:-1])} (one per control point), "
             f"got {tuple(weights.shape)}"
         )
+
+
+def _positive_weights(weights) -> jax.Array:
+    """The `weights` converter of `NURBS` (and the value check of `nurbs`)."""
     return _require(
-        weights, "`weights` must all be positive and finite", lambda w: ~((w > 0) & (w < np.inf))
+        as_float(weights, "weights"),
+        "`weights` must all be positive and finite",
+        lambda w: ~((w > 0) & (w < np.inf)),
     )
 
 
@@ -116,21 +128,29 @@ class NURBS(eqx.Module):
     The property `knots` is the knot vector in use.
     """
 
-    control_points: Float[Array, "*batch n d"]
-    weights: Float[Array, "*batch n"]
-    base_knots: Float[Array, " n+p+1"]
+    control_points: Float[Array, "*batch n d"] = eqx.field(converter=_control_points)
+    weights: Float[Array, "*batch n"] = eqx.field(converter=_positive_weights)
+    base_knots: Float[Array, " n+p+1"] = eqx.field(converter=_knots_field)
     knot_logits: Float[Array, " s"] | None
     degree: int = eqx.field(static=True)
     fit_knots: bool = eqx.field(static=True)
 
     def __init__(self, control_points, weights, degree: int, knots=None, *, fit_knots=False):
+        # As `BSpline`: the default knots, `knot_logits` and the weights' dtype (that of
+        # the control points) are made here; converters and `__check_init__` check.
         cp = _control_points(control_points)
-        self.base_knots, self.degree = _knots_for(cp, degree, knots)
-        self.control_points = cp
-        self.weights = _check_weights(as_float(weights, "weights").astype(cp.dtype), cp)
+        n, p = _check_degree(cp.shape[-2], degree)
+        if knots is None:
+            knots = clamped_knots(n, p, dtype=cp.dtype)
+        self.control_points, self.base_knots, self.degree = cp, _knots_field(knots), p
+        self.weights = as_float(weights, "weights").astype(cp.dtype)
         self.fit_knots = bool(fit_knots)
-        n = cp.shape[-2]
-        self.knot_logits = _knot_logits(self.base_knots, self.degree, n) if self.fit_knots else None
+        self.knot_logits = _initial_logits(self.base_knots, p, n) if self.fit_knots else None
+
+    def __check_init__(self):
+        """One weight per control point, and the knots against the degree."""
+        _check_weight_shape(self.weights, self.control_points)
+        _check_knot_fields(self)
 
     def fixed_fields(self) -> tuple[str, ...]:
         """Fields `gfxlab.fit` holds fixed: the given knots (with `fit_knots=True` they
@@ -140,11 +160,8 @@ class NURBS(eqx.Module):
     @property
     def knots(self) -> Float[Array, " n+p+1"]:
         """The knots in use."""
-        frame = jax.lax.stop_gradient(self.base_knots)
-        if self.knot_logits is None:
-            return frame
         n = self.control_points.shape[-2]
-        return _knots_from_logits(frame, self.knot_logits, self.degree, n)
+        return _knots_in_use(self.base_knots, self.knot_logits, self.degree, n)
 
     @property
     def parameter_range(self) -> tuple[Float[Array, ""], Float[Array, ""]]:

@@ -80,7 +80,7 @@ def _q1f(q: Question) -> Answer:
 
     from gfxlab import clipping
 
-    example = clipping.SEED_EXAMPLE
+    example = clipping.WALKTHROUGH_EXAMPLE
     window = np.asarray(example["window"], float)
     xmin, ymin, xmax, ymax = window
     xs, ys = (xmin - 1, (xmin + xmax) / 2, xmax + 1), (ymax + 1, (ymin + ymax) / 2, ymin - 1)

@@ -21,7 +21,7 @@ import numpy as np
 from jaxtyping import Array, Float, Shaped
 
 from .._checks import static_int
-from .._pixels import to_uint8
+from .._pixels import to_float, to_uint8
 
 __all__ = ["FORMATS", "ImageFileError", "read_image", "write_image", "image_info"]
 
@@ -243,17 +243,14 @@ def read_image(
             arr, mode = _load_frame(im, frame)
     if frame >= frames:
         raise ValueError(f"`frame` must be < {frames} (the file has {frames}), got {frame}")
-    if arr.dtype == np.uint8:
-        scale = 255.0
-    elif arr.dtype in (np.uint16, np.dtype(">u2"), np.int32) and mode.startswith("I"):
-        arr, scale = arr.astype(np.uint16), 65535.0
-    elif np.issubdtype(arr.dtype, np.floating):
+    if arr.dtype == np.uint8:  # the file-boundary rule of `_pixels` (8 bits)
+        return to_float(arr) if as_float else arr
+    if arr.dtype in (np.uint16, np.dtype(">u2"), np.int32) and mode.startswith("I"):
+        arr = arr.astype(np.uint16)  # 16-bit files: the same rule, 65535 for 255
+        return jnp.asarray(arr / 65535.0, dtype=jnp.result_type(float)) if as_float else arr
+    if np.issubdtype(arr.dtype, np.floating):
         return jnp.asarray(arr, dtype=jnp.result_type(float)) if as_float else arr
-    else:
-        raise ImageFileError(f"unsupported image mode {mode!r} in {os.fspath(path)!r}")
-    if not as_float:
-        return arr
-    return jnp.asarray(arr / scale, dtype=jnp.result_type(float))
+    raise ImageFileError(f"unsupported image mode {mode!r} in {os.fspath(path)!r}")
 
 
 _MODE_BITS = {

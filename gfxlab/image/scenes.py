@@ -8,7 +8,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from .._checks import check_key, checked_jit
-from .._pixels import checked_shape
+from .._pixels import checked_shape, row_to_y
 from ..raster._args import float_dtype, float_scalar
 from .filters import _check_filter_image
 from .networks import guard_finite
@@ -95,7 +95,9 @@ def synthetic_scene(
     height, width = checked_shape(shape)
     seed = _scene_number(check_key(key))
     rng = np.random.default_rng(seed)
-    v, u = np.meshgrid(np.linspace(1, 0, height), np.linspace(0, 1, width), indexing="ij")
+    # Picture coordinates in [0, 1] of the pixel centres: u right, v up (`_pixels`' y).
+    heights = row_to_y(np.arange(height), height) / (height - 1) if height > 1 else np.ones(1)
+    v, u = np.meshgrid(heights, np.linspace(0, 1, width), indexing="ij")
     # Value noise on `cells x cells` lattices over the picture, one layer per size,
     # in float32 so that the scene is the same with and without `jax_enable_x64`.
     sizes = (6, 14, 30, 10, 8, 40, 50, 60, 35, 12)

@@ -29,6 +29,7 @@ Examples:
 
 from __future__ import annotations
 
+import functools
 import os
 import pathlib
 import re
@@ -46,6 +47,7 @@ from .._checks import (
     check_range,
     check_shape,
     checked_jit,
+    is_traced,
     safe_normalize,
     static_int,
     value_error_if,
@@ -99,6 +101,16 @@ def check_faces(faces, num_vertices: int, name: str = "faces") -> jax.Array:
     """
     _check_label(name)
     num_vertices = static_int(num_vertices, "num_vertices", minimum=0, maximum=MAX_ELEMENTS)
+    faces = _index_array(faces, name)
+    return value_error_if(
+        faces,
+        (faces < 0) | (faces >= num_vertices),
+        f"`{name}` must index the {num_vertices} vertices (0 <= index < {num_vertices})",
+    )
+
+
+def _index_array(faces, name: str) -> jax.Array:
+    """The static part of `check_faces`: an integer `(F, 3)` JAX array."""
     if faces is None or isinstance(faces, str | bytes):
         raise TypeError(f"`{name}` must be an (F, 3) array of vertex indices, got {faces!r:.40}")
     try:
@@ -108,11 +120,7 @@ def check_faces(faces, num_vertices: int, name: str = "faces") -> jax.Array:
     if not jnp.issubdtype(faces.dtype, jnp.integer):
         raise TypeError(f"`{name}` must hold integer vertex indices, got dtype {faces.dtype}")
     check_shape(faces, name, (None, 3))
-    return value_error_if(
-        faces,
-        (faces < 0) | (faces >= num_vertices),
-        f"`{name}` must index the {num_vertices} vertices (0 <= index < {num_vertices})",
-    )
+    return faces
 
 
 def check_colors(colors, count: int, name: str = "colors", per: str = "vertex", *, dtype=None):
@@ -129,12 +137,16 @@ def check_colors(colors, count: int, name: str = "colors", per: str = "vertex", 
     colors = as_float(colors, name)
     if dtype is not None:
         colors = colors.astype(dtype)
+    _check_color_shape(colors, count, name, per)
+    return check_finite(colors, name)
+
+
+def _check_color_shape(colors: jax.Array, count: int, name: str, per: str) -> None:
     if colors.ndim != 2 or colors.shape[0] != count or not 1 <= colors.shape[1] <= 4:
         raise ValueError(
             f"`{name}` must have shape ({count}, C), C = 1 to 4 (one color per {per}, "
             f"{count} {_PER[per]}), got shape {tuple(colors.shape)}"
         )
-    return check_finite(colors, name)
 
 
 _PER = {"vertex": "vertices", "face": "faces", "triangle": "triangles"}  # their plurals
@@ -149,20 +161,58 @@ def _check_label(name) -> None:
         raise ValueError(f"`name` must be an argument name such as 'faces', got {name!r:.40}")
 
 
-def _optional_indexed(values, index, name, index_name, width, faces_shape):
-    """Optional per-corner attribute table `values (N, width)` with `index (F, 3)`."""
-    if values is None and index is None:
-        return None, None
-    if values is None or index is None:
-        raise ValueError(f"`{name}` and `{index_name}` must be given together")
+# `Mesh` validates as every gfxlab Module does (docs/architecture.md, Conventions): each
+# field's converter checks what that argument alone decides, `__check_init__` the
+# relations between fields (concrete values; traced faces are checked by the functions
+# that index with them, `check_faces`).
+
+
+def _vertices_field(vertices) -> jax.Array:
+    vertices = as_float(vertices, "vertices")
+    check_shape(vertices, "vertices", (None, 3))
+    return check_finite(vertices, "vertices")
+
+
+def _optional_field(name: str, convert):
+    """The converter of an optional field: `None` stays `None`, else `convert(value, name)`."""
+
+    def optional(value):
+        return None if value is None else convert(value, name)
+
+    optional.__name__ = f"_as_{name}"
+    return optional
+
+
+def _table(values, name: str, *, width: int) -> jax.Array:
     values = as_float(values, name)
     check_shape(values, name, (None, width))
-    index = check_faces(index, values.shape[0], index_name)
-    if index.shape != faces_shape:
+    return values
+
+
+def _unit_values(values, name: str, *, rank: int) -> jax.Array:
+    values = as_float(values, name)
+    check_shape(values, name, (None,) * rank)
+    return check_range(values, name, minimum=0, maximum=1, what="colour values")
+
+
+def _check_indexed(mesh, name: str, index_name: str) -> None:
+    """An optional per-corner table `name` and its `(F, 3)` indices `index_name`."""
+    values, index = getattr(mesh, name), getattr(mesh, index_name)
+    if values is None and index is None:
+        return
+    if values is None or index is None:
+        raise ValueError(f"`{name}` and `{index_name}` must be given together")
+    if index.shape != mesh.faces.shape:
         raise ValueError(
-            f"`{index_name}` must have the shape of `faces` {faces_shape}, got {index.shape}"
+            f"`{index_name}` must have the shape of `faces` {mesh.faces.shape}, got {index.shape}"
         )
-    return values, index
+    _check_bounds(index, values.shape[0], index_name)
+
+
+def _check_bounds(index: jax.Array, count: int, name: str) -> None:
+    """`check_faces`'s index bound, for concrete indices (traced ones: where used)."""
+    if not is_traced(index):
+        check_faces(index, count, name)
 
 
 class Mesh(eqx.Module):
@@ -172,14 +222,26 @@ class Mesh(eqx.Module):
     A pytree: its fields are the constructor's arguments, checked once at construction.
     """
 
-    vertices: Float[Array, "V 3"]
-    faces: Int[Array, "F 3"]
-    colors: Float[Array, "V C"] | None = None
-    uvs: Float[Array, "T 2"] | None = None
-    uv_faces: Int[Array, "F 3"] | None = None
-    normals: Float[Array, "N 3"] | None = None
-    normal_faces: Int[Array, "F 3"] | None = None
-    texture: Float[Array, "Ht Wt C"] | None = None
+    vertices: Float[Array, "V 3"] = eqx.field(converter=_vertices_field)
+    faces: Int[Array, "F 3"] = eqx.field(converter=functools.partial(_index_array, name="faces"))
+    colors: Float[Array, "V C"] | None = eqx.field(
+        default=None, converter=_optional_field("colors", functools.partial(_unit_values, rank=2))
+    )
+    uvs: Float[Array, "T 2"] | None = eqx.field(
+        default=None, converter=_optional_field("uvs", functools.partial(_table, width=2))
+    )
+    uv_faces: Int[Array, "F 3"] | None = eqx.field(
+        default=None, converter=_optional_field("uv_faces", _index_array)
+    )
+    normals: Float[Array, "N 3"] | None = eqx.field(
+        default=None, converter=_optional_field("normals", functools.partial(_table, width=3))
+    )
+    normal_faces: Int[Array, "F 3"] | None = eqx.field(
+        default=None, converter=_optional_field("normal_faces", _index_array)
+    )
+    texture: Float[Array, "Ht Wt C"] | None = eqx.field(
+        default=None, converter=_optional_field("texture", functools.partial(_unit_values, rank=3))
+    )
 
     def __init__(
         self,
@@ -209,34 +271,28 @@ class Mesh(eqx.Module):
           `uvs` and `uv_faces`.
 
         Bad shapes, dtypes, indices or values (NaN, inf, colours outside [0, 1]) raise
-        `TypeError`/`ValueError` naming the argument; the value and index checks also
-        under `jax.jit` (`gfxlab._checks.value_error_if`).
+        `TypeError`/`ValueError` naming the argument; the value checks also under
+        `jax.jit` (`gfxlab._checks.value_error_if`), and traced indices where they are
+        used (`check_faces`).
         """
-        vertices = as_float(vertices, "vertices")
-        check_shape(vertices, "vertices", (None, 3))
-        vertices = check_finite(vertices, "vertices")
-        faces = check_faces(faces, vertices.shape[0])
+        # Only the arguments are assigned here (the converters and `__check_init__` check
+        # them); `colors` is the one field that depends on another argument's dtype.
         if colors is not None:
-            colors = check_colors(colors, vertices.shape[0], dtype=vertices.dtype)
-            colors = check_range(colors, "colors", minimum=0, maximum=1, what="colour values")
-        uvs, uv_faces = _optional_indexed(uvs, uv_faces, "uvs", "uv_faces", 2, faces.shape)
-        normals, normal_faces = _optional_indexed(
-            normals, normal_faces, "normals", "normal_faces", 3, faces.shape
-        )
-        if texture is not None:
-            texture = as_float(texture, "texture")
-            check_shape(texture, "texture", (None, None, None))
-            texture = check_range(texture, "texture", minimum=0, maximum=1, what="colour values")
-            if uvs is None:
-                raise ValueError("a `texture` needs texture coordinates `uvs` and `uv_faces`")
+            colors = as_float(colors, "colors").astype(as_float(vertices, "vertices").dtype)
         self.vertices, self.faces, self.colors = vertices, faces, colors
-        self.uvs, self.uv_faces, self.normals, self.normal_faces = (
-            uvs,
-            uv_faces,
-            normals,
-            (normal_faces),
-        )
+        self.uvs, self.uv_faces = uvs, uv_faces
+        self.normals, self.normal_faces = normals, normal_faces
         self.texture = texture
+
+    def __check_init__(self):
+        """Relations between fields: indices within their tables, one colour per vertex."""
+        _check_bounds(self.faces, self.vertices.shape[0], "faces")
+        if self.colors is not None:
+            _check_color_shape(self.colors, self.vertices.shape[0], "colors", "vertex")
+        _check_indexed(self, "uvs", "uv_faces")
+        _check_indexed(self, "normals", "normal_faces")
+        if self.texture is not None and self.uvs is None:
+            raise ValueError("a `texture` needs texture coordinates `uvs` and `uv_faces`")
 
     @property
     def num_vertices(self) -> int:
@@ -302,12 +358,7 @@ def face_normals(vertices: Float[Array, "V 3"], faces: Int[Array, "F 3"]) -> Flo
 
 def _static_faces(faces, vertices):
     """The static part of `check_faces` (type and shape); the range is checked traced."""
-    if faces is None or isinstance(faces, str | bytes):
-        raise TypeError(f"`faces` must be an (F, 3) array of vertex indices, got {faces!r:.40}")
-    faces = jnp.asarray(faces)
-    if not jnp.issubdtype(faces.dtype, jnp.integer):
-        raise TypeError(f"`faces` must hold integer vertex indices, got dtype {faces.dtype}")
-    check_shape(faces, "faces", (None, 3))
+    faces = _index_array(faces, "faces")
     if vertices.shape[0] == 0 and faces.shape[0] > 0:
         raise ValueError(f"`vertices` is empty, but `faces` {faces.shape} index vertices")
     return faces

@@ -25,49 +25,55 @@ _MAX_FRAME_WORK = 1 << 26
 _INT = jnp.int32
 
 
+def _positions(positions) -> jax.Array:
+    positions = array_arg(positions, "positions", "beam positions (T, 2)")
+    check_shape(positions, "positions", (None, 2))
+    if positions.shape[0] < 1:
+        raise ValueError("`positions` must hold at least one time step, got shape (0, 2)")
+    return jnp.asarray(finite_arg(positions, "positions"))
+
+
+def _intensity(intensity) -> jax.Array:
+    intensity = finite_arg(array_arg(intensity, "intensity", "beam intensities (T,)"), "intensity")
+    return jnp.asarray(range_check(intensity, "intensity", low=0, high=1, low_open=False))
+
+
+def _on(on) -> jax.Array:
+    on = array_arg(on, "on", "booleans (T,)")
+    if on.dtype != np.bool_:
+        raise TypeError(f"`on` must be booleans, got dtype {on.dtype}")
+    return jnp.asarray(on)
+
+
 class BeamPath(eqx.Module):
     """Where a CRT's electron beam is at each time step, and how bright it is.
 
-    A pytree with the fields `positions`, `intensity` and `on`, the constructor's
-    arguments.
+    A pytree whose fields are the constructor's arguments, `BeamPath(positions,
+    intensity, on)`:
+
+    - `positions`: `(T, 2)` beam position in pixel coordinates `(x, y)`, y up (finite,
+      `T >= 1`).
+    - `intensity`: `(T,)` beam intensity in `[0, 1]` (0 while blanked).
+    - `on`: `(T,)` booleans: whether the beam is switched on (off during retrace and
+      moves).
+
+    Shapes and dtypes raise `TypeError`/`ValueError` naming the argument; the value
+    checks (finite, in range) go through `equinox.error_if` when traced.
     """
 
-    positions: Float[Array, "T 2"]
-    intensity: Float[Array, " T"]
-    on: Bool[Array, " T"]
+    positions: Float[Array, "T 2"] = eqx.field(converter=_positions)
+    intensity: Float[Array, " T"] = eqx.field(converter=_intensity)
+    on: Bool[Array, " T"] = eqx.field(converter=_on)
 
-    def __init__(self, positions, intensity, on):
-        """**Arguments:**
-
-        - `positions`: `(T, 2)` beam position in pixel coordinates `(x, y)`, y up (finite,
-          `T >= 1`).
-        - `intensity`: `(T,)` beam intensity in `[0, 1]` (0 while blanked).
-        - `on`: `(T,)` booleans: whether the beam is switched on (off during retrace and
-          moves).
-
-        Checked here: shapes and dtypes raise `TypeError`/`ValueError` naming the argument;
-        the value checks (finite, in range) go through `equinox.error_if` when traced.
-        """
-        positions = array_arg(positions, "positions", "beam positions (T, 2)")
-        check_shape(positions, "positions", (None, 2))
-        steps = positions.shape[0]
-        if steps < 1:
-            raise ValueError("`positions` must hold at least one time step, got shape (0, 2)")
-        intensity = array_arg(intensity, "intensity", "beam intensities (T,)")
-        on = array_arg(on, "on", "booleans (T,)")
-        for arr, name in ((intensity, "intensity"), (on, "on")):
+    def __check_init__(self):
+        """One `intensity` and one `on` per time step of `positions`."""
+        steps = self.positions.shape[0]
+        for arr, name in ((self.intensity, "intensity"), (self.on, "on")):
             if tuple(arr.shape) != (steps,):
                 raise ValueError(
                     f"`{name}` must have shape (T,) = ({steps},), one entry per time step of "
                     f"`positions`, got shape {tuple(arr.shape)}"
                 )
-        if on.dtype != np.bool_:
-            raise TypeError(f"`on` must be booleans, got dtype {on.dtype}")
-        intensity = finite_arg(intensity, "intensity")
-        intensity = range_check(intensity, "intensity", low=0, high=1, low_open=False)
-        self.positions = jnp.asarray(finite_arg(positions, "positions"))
-        self.intensity = jnp.asarray(intensity)
-        self.on = jnp.asarray(on)
 
 
 def _blanked_move(start: np.ndarray, end: np.ndarray, steps: int) -> np.ndarray:

@@ -55,55 +55,56 @@ __all__ = [
 ]
 
 
-class VisibilityResult(eqx.Module):
-    """What the hidden-surface methods return: the image, the depth buffer, the work
-    counters and (for `warnock`) the quadtree.
+def _image_field(image: Float[Array, "H W C"]) -> jax.Array:
+    image = as_float(image, "image")
+    check_shape(image, "image", (None, None, None))
+    if not 1 <= image.shape[2] <= 4:
+        raise ValueError(f"`image` must have 1 to 4 channels, got shape {tuple(image.shape)}")
+    return check_finite(image, "image")
 
-    A pytree with the fields `image`, `depth`, `counters` and `quadtree`, the
-    constructor's arguments.
+
+def _depth_field(depth: Float[Array, "H W"] | None) -> jax.Array | None:
+    if depth is None:
+        return None
+    depth = as_float(depth, "depth")
+    return value_error_if(depth, jnp.isnan(depth), "`depth` must not hold NaN (inf: nothing drawn)")
+
+
+def _counters_field(counters: dict) -> dict:
+    if isinstance(counters, dict):
+        return counters
+    raise TypeError(f"`counters` must be a dict of counts, got {type(counters).__name__}")
+
+
+def _quadtree_field(quadtree: tuple | None) -> tuple | None:
+    if quadtree is None or isinstance(quadtree, tuple):
+        return quadtree
+    raise TypeError(f"`quadtree` must be a tuple of arrays or None, got {quadtree!r:.60}")
+
+
+class VisibilityResult(eqx.Module):
+    """What the hidden-surface methods return, a pytree whose fields are the arguments of
+    `VisibilityResult(image, depth, counters, quadtree=None)`:
+
+    - `image`: `(H, W, C)` the rendered image, 1 to 4 channels, finite.
+    - `depth`: `(H, W)` the depth buffer (`inf` where nothing is drawn, no NaN), or
+      `None` for methods without one.
+    - `counters`: dict of integer scalars: `memory_bytes` (buffers the method keeps),
+      `depth_tests` (depth comparisons), `polygon_tests` (polygon-vs-polygon or
+      polygon-vs-area tests), and method-specific extras.
+    - `quadtree`: for `warnock`, a tuple with one `(2^l, 2^l)` array of
+      `WARNOCK_CODES` per level; default `None`.
     """
 
-    image: Float[Array, "H W C"]
-    depth: Float[Array, "H W"] | None
-    counters: dict
-    quadtree: tuple | None = None
+    image: Float[Array, "H W C"] = eqx.field(converter=_image_field)
+    depth: Float[Array, "H W"] | None = eqx.field(converter=_depth_field)
+    counters: dict = eqx.field(converter=_counters_field)
+    quadtree: tuple | None = eqx.field(default=None, converter=_quadtree_field)
 
-    def __init__(
-        self,
-        image: Float[Array, "H W C"],
-        depth: Float[Array, "H W"] | None,
-        counters: dict,
-        quadtree: tuple | None = None,
-    ):
-        """**Arguments:**
-
-        - `image`: `(H, W, C)` the rendered image, 1 to 4 channels, finite.
-        - `depth`: `(H, W)` the depth buffer (`inf` where nothing is drawn, no NaN), or
-          `None` for methods without one.
-        - `counters`: dict of integer scalars: `memory_bytes` (buffers the method keeps),
-          `depth_tests` (depth comparisons), `polygon_tests` (polygon-vs-polygon or
-          polygon-vs-area tests), and method-specific extras.
-        - `quadtree`: for `warnock`, a tuple with one `(2^l, 2^l)` array of
-          `WARNOCK_CODES` per level; default `None`.
-        """
-        image = as_float(image, "image")
-        check_shape(image, "image", (None, None, None))
-        if not 1 <= image.shape[2] <= 4:
-            raise ValueError(f"`image` must have 1 to 4 channels, got shape {tuple(image.shape)}")
-        self.image = check_finite(image, "image")
-        if depth is not None:
-            depth = as_float(depth, "depth")
-            check_shape(depth, "depth", image.shape[:2])
-            with jax.ensure_compile_time_eval():
-                bad = jnp.isnan(depth)
-            depth = value_error_if(depth, bad, "`depth` must not hold NaN (inf: nothing drawn)")
-        self.depth = depth
-        if not isinstance(counters, dict):
-            raise TypeError(f"`counters` must be a dict of counts, got {type(counters).__name__}")
-        self.counters = counters
-        if quadtree is not None and not isinstance(quadtree, tuple):
-            raise TypeError(f"`quadtree` must be a tuple of arrays or None, got {quadtree!r:.60}")
-        self.quadtree = quadtree
+    def __check_init__(self):
+        """`depth` covers the pixels of `image`."""
+        if self.depth is not None:
+            check_shape(self.depth, "depth", self.image.shape[:2])
 
 
 #: Decision codes of `warnock`'s quadtree cells.

@@ -35,7 +35,7 @@ from ..brdf import Lambert
 __all__ = ["PointLight", "DirectionalLight", "shade", "sample_texture"]
 
 
-def _intensity(value, name):
+def _intensity(value, name="intensity"):
     value = as_float(value, name)
     if value.ndim > 1:
         raise ValueError(f"`{name}` must be a scalar or a colour (C,), got shape {value.shape}")
@@ -44,25 +44,34 @@ def _intensity(value, name):
     )
 
 
+def _position(position):
+    position = as_float(position, "position")
+    check_shape(position, "position", (3,))
+    return value_error_if(position, ~jnp.isfinite(position), "`position` must be finite")
+
+
+def _direction(direction):
+    direction = as_float(direction, "direction")
+    check_shape(direction, "direction", (3,))
+    return value_error_if(
+        direction,
+        ~(safe_norm(direction) > 0) | ~jnp.all(jnp.isfinite(direction)),
+        "`direction` must be a finite non-zero vector",
+    )
+
+
 class PointLight(eqx.Module):
-    """A point light at `position` (world space) of `intensity` (scalar or colour `(C,)`)."""
+    """A point light at `position` (world space) of `intensity` (scalar or colour `(C,)`).
 
-    position: Float[Array, "3"]
-    intensity: Float[Array, "*C"]
+    `PointLight(position, intensity=1.0)`:
 
-    def __init__(self, position, intensity=1.0):
-        """**Arguments:**
+    - `position`: the light's `(3,)` position in world space, finite.
+    - `intensity`: a scalar or a colour `(C,)`, finite and `>= 0`; default 1. The
+      irradiance at a point falls off as `intensity / distance**2`.
+    """
 
-        - `position`: the light's `(3,)` position in world space, finite.
-        - `intensity`: a scalar or a colour `(C,)`, finite and `>= 0`; default 1. The
-          irradiance at a point falls off as `intensity / distance**2`.
-        """
-        position = as_float(position, "position")
-        check_shape(position, "position", (3,))
-        self.position = value_error_if(
-            position, ~jnp.isfinite(position), "`position` must be finite"
-        )
-        self.intensity = _intensity(intensity, "intensity")
+    position: Float[Array, "3"] = eqx.field(converter=_position)
+    intensity: Float[Array, "*C"] = eqx.field(default=1.0, converter=_intensity)
 
     def incident(self, points):
         """Unit directions towards the light and the irradiance `(..., 1 or C)`."""
@@ -73,28 +82,18 @@ class PointLight(eqx.Module):
 
 
 class DirectionalLight(eqx.Module):
-    """A light at infinity: `direction` points from the scene towards the light."""
+    """A light at infinity: `direction` points from the scene towards the light.
 
-    direction: Float[Array, "3"]
-    intensity: Float[Array, "*C"]
+    `DirectionalLight(direction, intensity=1.0)`:
 
-    def __init__(self, direction, intensity=1.0):
-        """**Arguments:**
+    - `direction`: `(3,)` vector from the scene towards the light, finite and non-zero
+      (any length: it is normalized where used).
+    - `intensity`: a scalar or a colour `(C,)`, finite and `>= 0`; default 1 (the same
+      irradiance everywhere).
+    """
 
-        - `direction`: `(3,)` vector from the scene towards the light, finite and
-          non-zero (any length: it is normalized where used).
-        - `intensity`: a scalar or a colour `(C,)`, finite and `>= 0`; default 1 (the
-          same irradiance everywhere).
-        """
-        direction = as_float(direction, "direction")
-        check_shape(direction, "direction", (3,))
-        length = safe_norm(direction)
-        self.direction = value_error_if(
-            direction,
-            ~(length > 0) | ~jnp.all(jnp.isfinite(direction)),
-            "`direction` must be a finite non-zero vector",
-        )
-        self.intensity = _intensity(intensity, "intensity")
+    direction: Float[Array, "3"] = eqx.field(converter=_direction)
+    intensity: Float[Array, "*C"] = eqx.field(default=1.0, converter=_intensity)
 
     def incident(self, points):
         """Unit directions towards the light and the irradiance scale at `points`."""
