@@ -1,5 +1,7 @@
-"""Checks of `render`'s inputs and options, batched cameras, and the static
-configuration `render` compiles with (its tile capacity measured from the geometry)."""
+"""The argument checks of the render entries (`render`'s inputs and options, the
+`Rendering` buffers, `interpolate`, `antialias`, `soft_silhouette`), batched cameras, and
+the static configuration `render` compiles with (its tile capacity measured from the
+geometry)."""
 
 from __future__ import annotations
 
