@@ -176,9 +176,33 @@ def check_last_dim(x: jax.Array, name: str, sizes: Sequence[int], what: str = ""
     return x.shape[-1]
 
 
-def check_shape(x: jax.Array, name: str, shape: tuple) -> None:
+def as_int(x, name: str = "x", what: str = "") -> jax.Array:
+    """`x` as a JAX integer array (indices, labels), keeping its integer dtype.
+
+    `None`, strings, non-numbers and floating or boolean arrays raise `TypeError` naming
+    the argument (`what` says what it holds, e.g. "face indices").
+    """
+    if isinstance(x, jax.Array) and jnp.issubdtype(x.dtype, jnp.integer):
+        return x  # the common case, without a dispatch
+    hint = f" of {what}" if what else ""
+    if x is None or isinstance(x, str | bytes):
+        raise TypeError(f"`{name}` must be an integer array{hint}, got {x!r:.40}")
+    try:
+        if isinstance(x, list | tuple) and np.asarray(x).dtype.kind not in "biuf":
+            raise TypeError("not numbers")  # (strings: before JAX warns about their dtype)
+        arr = to_jax(x)
+    except (TypeError, ValueError, OverflowError) as err:
+        raise TypeError(f"`{name}` must be an integer array{hint}, got {type(x).__name__}") from err
+    if not jnp.issubdtype(arr.dtype, jnp.integer):
+        raise TypeError(f"`{name}` must be an integer array{hint}, got dtype {arr.dtype}")
+    return arr
+
+
+def check_shape(x: jax.Array, name: str, shape: tuple, what: str = "") -> None:
     """Check that `x.shape` matches `shape`, where `None` entries match any size and a
-    leading `...` matches any batch dimensions."""
+    leading `...` matches any batch dimensions. `what` says where an expected size
+    comes from (e.g. "the pixel shape of `image`"), so that a mismatch names both
+    arguments."""
     shape = tuple(shape)
     batch = len(shape) > 0 and shape[0] is Ellipsis
     core = shape[1:] if batch else shape
@@ -190,7 +214,8 @@ def check_shape(x: jax.Array, name: str, shape: tuple) -> None:
     if not ok:
         pretty = ", ".join("..." if s is Ellipsis else "n" if s is None else str(s) for s in shape)
         pretty += "," if len(shape) == 1 else ""  # written as Python writes the tuple: (4,)
-        raise ValueError(f"`{name}` must have shape ({pretty}), got shape {actual}")
+        hint = f" ({what})" if what else ""
+        raise ValueError(f"`{name}` must have shape ({pretty}){hint}, got shape {actual}")
 
 
 def static_int(value, name: str, *, minimum: int | None = None, maximum: int | None = None) -> int:

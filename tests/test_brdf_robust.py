@@ -89,7 +89,21 @@ def test_check_grads_down_to_the_minimum_roughness(dtype):
     args = (r, wi, wo, jnp.asarray(0.5, dtype))
     check_grads(jax.jit(f), args, order=1, modes=["rev"], eps=eps)
     model = lambda r, a, b: brdf.CookTorrance(r, 0.9)(_unit(a), _unit(b), n)
-    check_grads(jax.jit(model), args[:3], order=1, modes=["rev"], eps=eps)
+    if dtype == jnp.float64:
+        check_grads(jax.jit(model), args[:3], order=1, modes=["rev"], eps=eps)
+    else:
+        # In float32 a finite difference cannot resolve the model's peak at the exact
+        # mirror direction (in float64 too, the step float32 needs is 6e-4 off in
+        # truncation alone; float32 rounding makes it 3e-3): its float32 gradients are
+        # checked against the float64 ones, which check_grads checks in the float64 case.
+        def grads(*xs):
+            weights = jnp.arange(1.0, 4.0, dtype=xs[0].dtype)
+            return jax.grad(lambda *v: jnp.sum(model(*v) * weights), argnums=(0, 1, 2))(*xs)
+
+        ours = jax.jit(grads)(*args[:3])
+        exact = jax.jit(grads)(*(x.astype(jnp.float64) for x in args[:3]))
+        for g32, g64 in zip(ours, exact, strict=True):
+            np.testing.assert_allclose(g32, g64, rtol=1e-3, atol=1e-3 * float(jnp.abs(g64).max()))
     # The microfacet terms alone, just above MIN_ALPHA. Away from the peak: in float32
     # the peak of D(cos_h) at MIN_ALPHA is narrower (1 - cos_h ~ alpha^2 / 2) than a
     # finite-difference step in cos_h can resolve.

@@ -1,5 +1,7 @@
 """gfxlab._checks: every check gives the same message eagerly and under jit."""
 
+import re
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -215,6 +217,48 @@ def test_shape_checks():
     # under jit shapes are static, so the same ValueError is raised at trace time
     with pytest.raises(ValueError, match=r"`x` must have shape \(\.\.\., 4\)"):
         jax.jit(lambda v: C.check_shape(v, "x", (..., 4)))(x)
+    # `what` names where an expected size comes from (so both arguments are named)
+    pixels = "the pixel shape of `image`"
+    with pytest.raises(
+        ValueError,
+        match=r"`d` must have shape \(0, 8\) \(the pixel shape of `image`\), got shape \(8, 8\)",
+    ):
+        C.check_shape(jnp.ones((8, 8)), "d", (0, 8), pixels)
+    with pytest.raises(
+        ValueError, match=r"`d` must have shape \(0, 8\) \(the pixel shape of `image`\)"
+    ):
+        jax.jit(lambda v: C.check_shape(v, "d", (0, 8), pixels))(jnp.ones((8, 8)))
+
+
+@pytest.mark.parametrize(
+    ("value", "message"),
+    [
+        (None, "`i` must be an integer array of indices, got None"),
+        ("abc", "`i` must be an integer array of indices, got 'abc'"),
+        (["a", "b"], "`i` must be an integer array of indices, got list"),
+        ([[1, 2], [3]], "`i` must be an integer array of indices, got list"),
+        (np.array(["a"]), "`i` must be an integer array of indices, got ndarray"),
+        (object(), "`i` must be an integer array of indices, got object"),
+        (np.zeros(3), "`i` must be an integer array of indices, got dtype float"),
+        (jnp.zeros(3, bool), "`i` must be an integer array of indices, got dtype bool"),
+        (1.5, "`i` must be an integer array of indices, got dtype float"),
+    ],
+)
+def test_as_int_rejects(value, message):
+    with pytest.raises(TypeError, match=re.escape(message)):
+        C.as_int(value, "i", "indices")
+
+
+def test_as_int_keeps_integer_dtypes_eagerly_and_under_jit():
+    for value in ([1, 2], np.array([1, 2], np.uint8), jnp.array([1, 2], jnp.int16), 3):
+        out = C.as_int(value, "i")
+        assert jnp.issubdtype(out.dtype, jnp.integer)
+        np.testing.assert_array_equal(out, np.asarray(value))
+    assert C.as_int(np.array([1], np.uint8), "i").dtype == jnp.uint8
+    traced = jax.jit(lambda v: C.as_int(v, "i") * 2)(jnp.array([1, 2]))
+    np.testing.assert_array_equal(traced, [2, 4])
+    with pytest.raises(TypeError, match="`i` must be an integer array, got dtype float"):
+        jax.jit(lambda v: C.as_int(v, "i"))(jnp.zeros(2))
 
 
 def test_safe_helpers_have_finite_gradients_at_zero():

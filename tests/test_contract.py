@@ -31,7 +31,8 @@ Summary (counts per module), from the repository root:
     python tests/test_contract.py --quick --modules mesh,color --details  # one module's gaps
 
 Under pytest the sweep runs the quick subset of cases (`QUICK_CASES`: None, NaN, a wrong
-shape, a huge size, an unknown choice for every parameter of every function);
+shape, a huge size, an unknown choice, an empty array and a string for an array, for every
+parameter of every function; inf, a float or a string for an int are left to the full sweep);
 `CONTRACT_FULL=1 pytest tests/test_contract.py` runs them all.
 """
 
@@ -560,7 +561,11 @@ def _calls(module_name: str):
 
 
 #: The cases of the quick sweep (the default under pytest; `CONTRACT_FULL=1` for all).
-QUICK_CASES = {"none", "nan", "huge", "choice", "shape"}
+#: "empty" and "dtype" mostly fail fast (no compile): with them the quick sweep has 2,097
+#: cases instead of 1,520 in about the same time (two minutes of CPU, within the noise of
+#: a shared machine); they catch what only the full sweep found (`render`'s empty
+#: arrays and string dtypes).
+QUICK_CASES = {"none", "nan", "huge", "choice", "shape", "empty", "dtype"}
 
 
 def sweep(

@@ -1,5 +1,7 @@
-"""Checks of `render`'s inputs and options, batched cameras, and the static
-configuration `render` compiles with (its tile capacity measured from the geometry)."""
+"""The argument checks of the render entries (`render`'s inputs and options, the
+`Rendering` buffers, `interpolate`, `antialias`, `soft_silhouette`), batched cameras, and
+the static configuration `render` compiles with (its tile capacity measured from the
+geometry)."""
 
 from __future__ import annotations
 
@@ -9,7 +11,9 @@ import jax
 import jax.numpy as jnp
 
 from .._checks import (
+    MAX_ELEMENTS,
     as_float,
+    as_int,
     check_finite,
     check_shape,
     is_traced,
@@ -17,6 +21,7 @@ from .._checks import (
     static_shape,
     value_error_if,
 )
+from ..mesh import check_faces
 from ..viewing import Camera
 from ._project import check_mesh_camera, project_faces
 from ._tiles import any_traced, check_options, logit_limit, resolve_capacity
@@ -175,3 +180,102 @@ def render_config(mesh, vertices, camera, batched, sigma, mode, shape, *, eps, s
         batched,
         reference,
     )
+
+
+# ------------------------------------------------ the checks of the other public entries
+
+
+def faces_of(faces, vertices, vertices_name: str):
+    """`faces` checked as indices into the rows of `vertices` (`check_faces`), after the
+    one mismatch known from the shapes alone: faces that index an empty `vertices`."""
+    faces = as_int(faces, "faces", "vertex indices")
+    check_shape(faces, "faces", (None, 3))
+    if vertices.shape[0] == 0 and faces.shape[0] > 0:
+        raise ValueError(
+            f"`faces` index vertices, but `{vertices_name}` has none (shape "
+            f"{tuple(vertices.shape)}): {faces.shape[0]} faces need at least one vertex"
+        )
+    return check_faces(faces, vertices.shape[0])
+
+
+def finite_rows(x, name: str, shape: tuple, what: str = "", dtype=None):
+    """`x` as a finite float array of `shape` (`check_shape`'s pattern; `what` says where
+    its sizes come from), cast to `dtype` if given."""
+    x = as_float(x, name)
+    if dtype is not None:
+        x = x.astype(dtype)
+    check_shape(x, name, shape, what)
+    return check_finite(x, name)
+
+
+def interpolate_inputs(attributes, faces, face_index, barycentrics):
+    """`interpolate`'s arguments, checked: `(attributes, faces, face_index, barycentrics)`."""
+    attributes = finite_rows(attributes, "attributes", (None, None))
+    faces = faces_of(faces, attributes, "attributes")
+    face_index = as_int(face_index, "face_index", "face indices")
+    barycentrics = finite_rows(
+        barycentrics,
+        "barycentrics",
+        tuple(face_index.shape) + (3,),
+        "the shape of `face_index`, then 3",
+        attributes.dtype,
+    )
+    return attributes, faces, face_index, barycentrics
+
+
+def antialias_inputs(image, face_index, depth, triangles_2d, faces):
+    """`antialias`'s arguments, checked: `(image, face_index, depth, triangles_2d,
+    faces)`."""
+    image = finite_rows(image, "image", (None, None, None))
+    pixels = "the pixel shape (H, W) of `image`"
+    face_index = as_int(face_index, "face_index", "face indices")
+    check_shape(face_index, "face_index", image.shape[:2], pixels)
+    depth = finite_rows(depth, "depth", image.shape[:2], pixels, image.dtype)
+    triangles_2d = finite_rows(triangles_2d, "triangles_2d", (None, 3, 2), dtype=image.dtype)
+    faces = check_faces(as_int(faces, "faces", "vertex indices"), MAX_ELEMENTS)
+    per_triangle = "one row per triangle of `triangles_2d`"
+    check_shape(faces, "faces", (triangles_2d.shape[0], 3), per_triangle)
+    return image, face_index, depth, triangles_2d, faces
+
+
+def silhouette_inputs(vertices_2d, faces, shape, sigma):
+    """`soft_silhouette`'s arrays and shape, checked: `((H, W), vertices_2d, faces,
+    sigma)` (`sigma` a scalar of the vertices' dtype, its range checked by
+    `check_options`)."""
+    shape = static_shape(shape)
+    vertices_2d = finite_rows(vertices_2d, "vertices_2d", (None, 2))
+    faces = faces_of(faces, vertices_2d, "vertices_2d")
+    sigma = as_float(sigma, "sigma").astype(vertices_2d.dtype)
+    check_shape(sigma, "sigma", ())
+    return shape, vertices_2d, faces, sigma
+
+
+_BUFFERS = ("color", "alpha", "depth", "normal", "position", "face_index", "barycentrics")
+
+
+def check_rendering(rendering) -> None:
+    """`Rendering.__check_init__`: every buffer an array with `color`'s pixel shape (and
+    3 channels for `normal`, `position`, `barycentrics`), `face_index` integer, the
+    floating buffers finite (checked when not traced)."""
+    fields = {name: getattr(rendering, name) for name in _BUFFERS + ("attributes",)}
+    for name, value in fields.items():
+        if value is None and name == "attributes":
+            continue
+        kind = getattr(getattr(value, "dtype", None), "kind", None)
+        if not hasattr(value, "shape") or kind not in tuple("biuf"):
+            raise TypeError(f"`{name}` must be an array of numbers, got {value!r:.40}")
+    color = fields["color"]
+    if len(color.shape) < 3:
+        raise ValueError(f"`color` must be an (H, W, C) array, got shape {tuple(color.shape)}")
+    pixels = tuple(color.shape[:-1])
+    expected = {"alpha": pixels, "depth": pixels, "face_index": pixels}
+    expected |= {name: pixels + (3,) for name in ("normal", "position", "barycentrics")}
+    if fields["attributes"] is not None:
+        expected["attributes"] = pixels + tuple(fields["attributes"].shape[-1:])
+    for name, shape in expected.items():
+        check_shape(fields[name], name, shape, f"the pixel shape {pixels} of `color`")
+    if not jnp.issubdtype(fields["face_index"].dtype, jnp.integer):
+        raise TypeError(f"`face_index` must be integer, got dtype {fields['face_index'].dtype}")
+    for name, value in fields.items():
+        if name != "face_index" and value is not None and not is_traced(value):
+            check_finite(value, name)

@@ -31,21 +31,19 @@ import numpy as np
 from jaxtyping import Array, Float, Int
 
 from .._checks import (
-    MAX_ELEMENTS,
-    as_float,
-    check_finite,
-    check_shape,
-    is_traced,
     safe_normalize,
     trusted_values,
 )
 from .._pixels import pixel_centers
-from ..mesh import Mesh, check_faces, vertex_normals
+from ..mesh import Mesh, vertex_normals
 from ..viewing import Camera
 from ._inputs import (
     RenderConfig,
+    antialias_inputs,
     batched_camera,
     check_render_inputs,
+    check_rendering,
+    interpolate_inputs,
     render_config,
     render_options,
 )
@@ -93,34 +91,7 @@ class Rendering(eqx.Module):
         """Check the buffers: each has `color`'s pixel shape `(H, W)` (and 3 channels for
         `normal`, `position`, `barycentrics`), `face_index` is integer, and the floating
         buffers are finite (checked when not traced)."""
-        if not hasattr(self.color, "shape") or len(self.color.shape) < 3:
-            raise ValueError(f"`color` must be an (H, W, C) array, got {self.color!r:.60}")
-        pixels = tuple(self.color.shape[:-1])
-        expected = {
-            "alpha": pixels,
-            "depth": pixels,
-            "normal": pixels + (3,),
-            "position": pixels + (3,),
-            "face_index": pixels,
-            "barycentrics": pixels + (3,),
-        }
-        if self.attributes is not None:
-            expected["attributes"] = pixels + tuple(self.attributes.shape[-1:])
-        for name, shape in expected.items():
-            value = getattr(self, name)
-            if value is None or not hasattr(value, "shape"):
-                raise TypeError(f"`{name}` must be an array of shape {shape}, got {value!r:.40}")
-            if tuple(value.shape) != shape:
-                raise ValueError(f"`{name}` must have shape {shape}, got {tuple(value.shape)}")
-        if not jnp.issubdtype(self.face_index.dtype, jnp.integer):
-            raise TypeError(f"`face_index` must be integer, got dtype {self.face_index.dtype}")
-        for name in ("color", "alpha", "depth", "normal", "position", "barycentrics"):
-            value = getattr(self, name)
-            if not is_traced(value) and not bool(jnp.all(jnp.isfinite(value))):
-                raise ValueError(f"`{name}` must be finite (no NaN or inf)")
-        if self.attributes is not None and not is_traced(self.attributes):
-            if not bool(jnp.all(jnp.isfinite(self.attributes))):
-                raise ValueError("`attributes` must be finite (no NaN or inf)")
+        check_rendering(self)
 
 
 def _fragments(points, sub, slot_mask, ids, params, *, soft, eps):
@@ -165,15 +136,6 @@ def _fragments(points, sub, slot_mask, ids, params, *, soft, eps):
     return jnp.concatenate([values, extra, b_near], -1)
 
 
-def _int_array(x, name):
-    if x is None:
-        raise TypeError(f"`{name}` must be an integer array, got None")
-    x = jnp.asarray(x)
-    if not jnp.issubdtype(x.dtype, jnp.integer):
-        raise TypeError(f"`{name}` must be an integer array, got dtype {x.dtype}")
-    return x
-
-
 def interpolate(
     attributes: Float[Array, "V A"],
     faces: Int[Array, "F 3"],
@@ -185,14 +147,9 @@ def interpolate(
     Pixels with `face_index = -1` get zeros. With the perspective-correct
     `Rendering.barycentrics` this is perspective-correct interpolation.
     """
-    attributes = as_float(attributes, "attributes")
-    check_shape(attributes, "attributes", (None, None))
-    attributes = check_finite(attributes, "attributes")
-    faces = check_faces(faces, attributes.shape[0])
-    face_index = _int_array(face_index, "face_index")
-    barycentrics = as_float(barycentrics, "barycentrics").astype(attributes.dtype)
-    check_shape(barycentrics, "barycentrics", tuple(face_index.shape) + (3,))
-    barycentrics = check_finite(barycentrics, "barycentrics")
+    attributes, faces, face_index, barycentrics = interpolate_inputs(
+        attributes, faces, face_index, barycentrics
+    )
     corners = attributes[faces[jnp.maximum(face_index, 0)]]  # (..., 3, A)
     values = jnp.einsum("...v,...va->...a", barycentrics, corners)
     return jnp.where((face_index >= 0)[..., None], values, 0.0)
@@ -257,19 +214,9 @@ def antialias(
     is blended towards the other by the distance of the crossing from the midpoint.
     The result is differentiable in the edge positions `triangles_2d` (pixels, y up).
     """
-    image = as_float(image, "image")
-    check_shape(image, "image", (None, None, None))
-    face_index = _int_array(face_index, "face_index")
-    check_shape(face_index, "face_index", image.shape[:2])
-    depth = as_float(depth, "depth").astype(image.dtype)
-    check_shape(depth, "depth", image.shape[:2])
-    triangles_2d = as_float(triangles_2d, "triangles_2d").astype(image.dtype)
-    check_shape(triangles_2d, "triangles_2d", (None, 3, 2))
-    faces = check_faces(faces, MAX_ELEMENTS)  # indices of any vertex array
-    check_shape(faces, "faces", (triangles_2d.shape[0], 3))
-    image = check_finite(image, "image")
-    depth = check_finite(depth, "depth")
-    triangles_2d = check_finite(triangles_2d, "triangles_2d")
+    image, face_index, depth, triangles_2d, faces = antialias_inputs(
+        image, face_index, depth, triangles_2d, faces
+    )
     return _antialias(image, face_index, depth, triangles_2d, faces)
 
 

@@ -31,8 +31,9 @@ from .._checks import (
     safe_normalize,
     static_shape,
 )
-from ..mesh import Mesh, check_faces, face_normals
+from ..mesh import Mesh, face_normals
 from ..viewing import Camera
+from ._inputs import silhouette_inputs
 from ._project import check_mesh_camera, project_faces
 from ._tiles import (
     any_traced,
@@ -140,13 +141,7 @@ def soft_silhouette_dense(
 
 def _silhouette(vertices_2d, faces, shape, sigma, eps, sizes, *, reference=False):
     """The checks of `soft_silhouette`(`_dense`) and the call of the jitted core."""
-    height, width = static_shape(shape)
-    vertices_2d = as_float(vertices_2d, "vertices_2d")
-    check_shape(vertices_2d, "vertices_2d", (None, 2))
-    vertices_2d = check_finite(vertices_2d, "vertices_2d")
-    faces = check_faces(faces, vertices_2d.shape[0])
-    sigma = as_float(sigma, "sigma").astype(vertices_2d.dtype)
-    check_shape(sigma, "sigma", ())
+    (height, width), vertices_2d, faces, sigma = silhouette_inputs(vertices_2d, faces, shape, sigma)
     sigma, tile_size, capacity, tiles_per_step = check_options(sigma, eps, *sizes)
     tri = vertices_2d[faces]
     if reference:
