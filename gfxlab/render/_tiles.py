@@ -216,16 +216,11 @@ class _Plan(NamedTuple):
 
 
 def step_widths(capacity: int) -> tuple[int, ...]:
-    """The kernel widths: a step whose busiest tile sees few faces evaluates fewer slots.
-
-    Small capacities get one kernel (half the compile time); larger ones up to six, in
-    multiples of 8 (tiles are sorted busiest first, so a step's tiles see similar
-    numbers of faces and the narrowest width that holds them wastes little).
-    """
-    if capacity < 24:
+    """The kernel widths: a step whose busiest tile sees few faces evaluates fewer slots."""
+    if capacity < 24:  # small: one kernel (half the compile time)
         return (capacity,)
-    step = -(-capacity // 48) * 8  # a sixth of the capacity, in multiples of 8
-    return tuple(range(step, capacity, step)) + (capacity,)
+    narrow = -(-capacity // 24) * 8  # a third, in multiples of 8
+    return tuple(sorted({narrow, capacity}))
 
 
 def tiled(
