@@ -461,7 +461,10 @@ def check_message(err: BaseException) -> str | None:
     """The message of a failed check carried by `err`, or None if `err` carries none.
 
     Works for the `ValueError` raised eagerly, JAX's `JaxRuntimeError` under `jax.jit`
-    and `equinox.EquinoxRuntimeError` under `equinox.filter_jit`.
+    and `equinox.EquinoxRuntimeError` under `equinox.filter_jit`. Any `equinox.error_if`
+    counts (gfxlab's or your own), and so does any plain `ValueError`/`TypeError`, whose
+    text is returned: eager checks fail that way, so this cannot tell gfxlab's eager
+    errors from others; `None` means `err` is some other runtime error.
     """
     text = str(err)
     for marker in _EQX_MARKERS:
@@ -481,7 +484,9 @@ def checked_jit(fn: Callable | None = None, **jit_kwargs) -> Callable:
     """`jax.jit` whose failed value checks raise `ValueError(message)`, as they do eagerly.
 
     A drop-in replacement for `jax.jit` (same keyword arguments; usable as a decorator
-    with or without them). Errors other than gfxlab's checks pass through unchanged.
+    with or without them). A failed `equinox.error_if` (gfxlab's checks, or one of your
+    own in the jitted function) becomes `ValueError(message)`; other errors pass through
+    unchanged.
     """
     if fn is None:
         return functools.partial(checked_jit, **jit_kwargs)

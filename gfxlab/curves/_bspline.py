@@ -164,7 +164,7 @@ def bspline(
     **Raises:** `ValueError` when the degree is too high for the number of control
     points, the knots are decreasing, non-finite or the wrong length, or `u` is out of
     range or NaN (under `jit` through `equinox.error_if`); `TypeError` for `None` or a
-    non-int degree.
+    degree that is not a whole number (`3` and `3.0` are accepted, `3.5` and `True` not).
     """
     cp = _control_points(control_points)
     n, p = _check_degree(cp.shape[-2], degree)

@@ -7,7 +7,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._checks import as_float, check_last_dim, check_shape, common_float
+from .._checks import as_float, check_finite, check_last_dim, check_shape, common_float
 from ._common import _flat_parameters, _floats, _not_finite, _require, _unflatten
 
 
@@ -107,8 +107,8 @@ class Ellipse(eqx.Module):
 
     def __call__(self, t: Float[ArrayLike, " N"]) -> Float[Array, "N 2"]:
         # The fields were checked at construction; inside a fit (where they are traced)
-        # only the kernel runs, so the compiled solver stays small.
-        t = as_float(t, "t")
+        # only `t` is checked, so the compiled solver stays small.
+        t = check_finite(as_float(t, "t"), "t")
         return _ellipse_kernel(self.center, self.radii, self.angle, t)
 
     def normalized(self) -> Ellipse:

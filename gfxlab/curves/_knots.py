@@ -59,7 +59,8 @@ def _check_degree(num_control_points, degree) -> tuple[int, int]:
     return n, p
 
 
-def _check_knots(knots: jax.Array, degree: int, num_control_points: int) -> jax.Array:
+def _check_knot_count(knots: jax.Array, degree: int, num_control_points: int) -> None:
+    """The static part of `_check_knots`: a 1-D array of `n + p + 1` knots."""
     check_shape(knots, "knots", (None,))
     expected = num_control_points + degree + 1
     if knots.shape[0] != expected:
@@ -67,6 +68,10 @@ def _check_knots(knots: jax.Array, degree: int, num_control_points: int) -> jax.
             f"`knots` must have num_control_points + degree + 1 = {num_control_points} + "
             f"{degree} + 1 = {expected} entries, got {knots.shape[0]}"
         )
+
+
+def _check_knots(knots: jax.Array, degree: int, num_control_points: int) -> jax.Array:
+    _check_knot_count(knots, degree, num_control_points)
     checks = [
         ("`knots` must be finite (no NaN or inf)", _not_finite),
         ("`knots` must be non-decreasing (t_0 <= t_1 <= ... <= t_m)", lambda t: t[1:] < t[:-1]),
@@ -231,14 +236,19 @@ def _periodic_breakpoints(n: int, dtype) -> jax.Array:
         return jnp.asarray(np.linspace(0, 1, n + 1), dtype=dtype)
 
 
-def _check_breakpoints(breaks: jax.Array, n: int) -> jax.Array:
-    """Checks of the `n + 1` breakpoints `t_0 <= ... <= t_n` of a closed B-spline."""
+def _check_breakpoint_count(breaks: jax.Array, n: int) -> None:
+    """The static part of `_check_breakpoints`: a 1-D array of `n + 1` breakpoints."""
     check_shape(breaks, "knots", (None,))
     if breaks.shape[0] != n + 1:
         raise ValueError(
             f"`knots` of a closed B-spline are its num_control_points + 1 = {n + 1} "
             f"breakpoints (one period), got {breaks.shape[0]}"
         )
+
+
+def _check_breakpoints(breaks: jax.Array, n: int) -> jax.Array:
+    """Checks of the `n + 1` breakpoints `t_0 <= ... <= t_n` of a closed B-spline."""
+    _check_breakpoint_count(breaks, n)
     breaks = _require(breaks, "`knots` must be finite (no NaN or inf)", _not_finite)
     breaks = _require(
         breaks, "`knots` must be non-decreasing (t_0 <= ... <= t_n)", lambda t: t[1:] < t[:-1]
@@ -273,9 +283,13 @@ def _knots_field(knots) -> jax.Array:
 
 def _check_knot_fields(curve, closed: bool = False) -> None:
     """The `__check_init__` of a curve's knots against its degree and control points
-    (concrete knots; traced ones are checked when the curve is evaluated)."""
+    (their number always; the values of traced knots when the curve is evaluated)."""
     n = curve.control_points.shape[-2]
     if is_traced(curve.base_knots):
+        if closed:
+            _check_breakpoint_count(curve.base_knots, n)
+        else:
+            _check_knot_count(curve.base_knots, curve.degree, n)
         return
     if closed:
         _check_breakpoints(curve.base_knots, n)

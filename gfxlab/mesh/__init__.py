@@ -186,7 +186,7 @@ def _optional_field(name: str, convert):
 def _table(values, name: str, *, width: int) -> jax.Array:
     values = as_float(values, name)
     check_shape(values, name, (None, width))
-    return values
+    return check_finite(values, name)
 
 
 def _unit_values(values, name: str, *, rank: int) -> jax.Array:
@@ -314,8 +314,9 @@ class Mesh(eqx.Module):
         return Mesh(vertices, self.faces, **fields)
 
     def triangles(self) -> Float[Array, "F 3 3"]:
-        """The `(F, 3, 3)` corner positions of every face."""
-        return self.vertices[self.faces]
+        """The `(F, 3, 3)` corner positions of every face (traced `faces` are checked
+        to index `vertices`, as in `face_normals`)."""
+        return self.vertices[check_faces(self.faces, self.num_vertices)]
 
     def transform(self, matrix: Float[Array, "4 4"]) -> Mesh:
         """The mesh with `matrix` (homogeneous 4x4, column vectors) applied to its vertices.
@@ -333,7 +334,10 @@ class Mesh(eqx.Module):
         return self._with(colors=colors)
 
     def with_vertices(self, vertices) -> Mesh:
-        """The mesh with new vertex positions (same connectivity and attributes)."""
+        """The mesh with new vertex positions (same connectivity and attributes: as many
+        vertices as before)."""
+        vertices = as_float(vertices, "vertices")
+        check_shape(vertices, "vertices", (self.num_vertices, 3))
         return self._with(vertices=vertices)
 
     def face_normals(self) -> Float[Array, "F 3"]:

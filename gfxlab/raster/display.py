@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float
 
-from .._checks import check_shape, static_int
+from .._checks import check_range, check_shape, checked_jit, static_int
 from .._pixels import checked_shape, pixel_to_index, row_to_y
 from ._args import array_arg, finite_arg, float_dtype, range_check
 
@@ -108,6 +108,7 @@ def raster_scan(
     """
     frame_buffer = finite_arg(array_arg(frame_buffer, "frame_buffer"), "frame_buffer")
     check_shape(frame_buffer, "frame_buffer", (None, None))
+    frame_buffer = check_range(frame_buffer, "frame_buffer", minimum=0, maximum=1)
     checked_shape(frame_buffer.shape, "frame_buffer.shape")
     height, width = frame_buffer.shape
     h_retrace = static_int(h_retrace, "h_retrace", minimum=1, maximum=MAX_BEAM_STEPS)
@@ -160,7 +161,7 @@ def _raster_layout(height: int, width: int, interlaced: bool, h_retrace: int, v_
     return positions, on, flat
 
 
-@jax.jit
+@checked_jit
 def _raster_beam(frame_buffer, positions, on, flat):
     frame_buffer = frame_buffer.astype(float_dtype(frame_buffer))
     intensity = jnp.where(on, frame_buffer.ravel()[flat], 0.0)
@@ -181,7 +182,7 @@ def random_scan(
     **Arguments:**
 
     - `display_list`: `(S, 2, 2)` segments `((x0, y0), (x1, y1))` in pixel coordinates.
-    - `intensity`: `(S,)` brightness of each segment (default 1).
+    - `intensity`: `(S,)` brightness of each segment in `[0, 1]` (default 1).
     - `samples_per_segment`: time steps spent drawing each segment (static int >= 2).
     - `move_samples`: time steps of each blanked move (static int >= 1).
 
@@ -200,10 +201,11 @@ def random_scan(
         intensity = np.ones(count)
     intensity = finite_arg(array_arg(intensity, "intensity"), "intensity")
     check_shape(intensity, "intensity", (count,))
+    intensity = check_range(intensity, "intensity", minimum=0, maximum=1)
     return _random_beam(segments, intensity, samples, moves)
 
 
-@jax.jit(static_argnums=(2, 3))
+@checked_jit(static_argnums=(2, 3))
 def _random_beam(segments, intensity, samples, moves):
     segments = segments.astype(float_dtype(segments))
     intensity = intensity.astype(float_dtype(intensity))

@@ -1,0 +1,86 @@
+"""Bad input found by a fresh user of the library (raster displays, `Mesh`, `Ellipse`,
+`BSpline`/`NURBS` built under `jit`): each gets a clear error naming the argument."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from gfxlab import curves, mesh, raster
+
+VERTICES = jnp.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+FACES = jnp.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+
+
+@pytest.mark.parametrize("warm", [False, True], ids=["first-call", "after-a-good-call"])
+def test_raster_scan_refuses_levels_outside_0_1_naming_frame_buffer(warm):
+    if warm:
+        raster.raster_scan(jnp.full((2, 2), 0.5))
+    with pytest.raises(ValueError, match=r"^`frame_buffer` must be in \[0, 1\]$"):
+        raster.raster_scan(jnp.full((2, 2), 2.0))
+
+
+def test_random_scan_refuses_intensity_outside_0_1():
+    segments = jnp.zeros((1, 2, 2))
+    with pytest.raises(ValueError, match=r"^`intensity` must be in \[0, 1\]$"):
+        raster.random_scan(segments, intensity=jnp.array([3.0]))
+    beam = raster.random_scan(segments, intensity=jnp.array([0.25]))
+    assert float(beam.intensity.max()) == 0.25
+
+
+def test_raster_scan_under_jit_names_frame_buffer():
+    with pytest.raises(Exception, match="`frame_buffer` must be in"):
+        jax.jit(raster.raster_scan)(jnp.full((2, 2), -1.0))
+
+
+def test_mesh_triangles_checks_traced_faces():
+    good = jax.jit(lambda f: mesh.Mesh(VERTICES, f).triangles())(FACES[:1])
+    np.testing.assert_array_equal(good, np.asarray(VERTICES)[np.asarray(FACES[:1])])
+    with pytest.raises(Exception, match="`faces` must index the 4 vertices"):
+        jax.jit(lambda f: mesh.Mesh(VERTICES, f).triangles())(jnp.array([[0, 1, 4]]))
+
+
+@pytest.mark.parametrize("field", ["normals", "uvs"])
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_mesh_refuses_non_finite_normals_and_uvs(field, bad):
+    width = 3 if field == "normals" else 2
+    index = "normal_faces" if field == "normals" else "uv_faces"
+    with pytest.raises(ValueError, match=rf"`{field}` must be finite"):
+        mesh.Mesh(VERTICES, FACES, **{field: jnp.full((4, width), bad), index: FACES})
+
+
+def test_mesh_with_vertices_keeps_the_vertex_count():
+    m = mesh.Mesh(VERTICES, FACES)
+    assert m.with_vertices(VERTICES * 2).num_vertices == 4
+    with pytest.raises(ValueError, match="`vertices` must have shape"):
+        m.with_vertices(jnp.zeros((5, 3)))
+
+
+@pytest.mark.parametrize("t", [np.nan, np.inf])
+def test_ellipse_call_refuses_non_finite_t(t):
+    ellipse = curves.Ellipse(jnp.zeros(2), jnp.ones(2))
+    with pytest.raises(ValueError, match="`t` must be finite"):
+        ellipse(jnp.array([0.0, t]))
+    np.testing.assert_allclose(ellipse(jnp.array([0.0])), [[1.0, 0.0]], atol=1e-12)
+
+
+@pytest.mark.parametrize("transform", ["jit", "vmap"])
+@pytest.mark.parametrize(
+    "build, knots, message",
+    [
+        (lambda k: curves.BSpline(jnp.ones((5, 2)), 3, k), 6, "9 entries, got 6"),
+        (lambda k: curves.BSpline(jnp.ones((5, 2)), 3, k, fit_knots=True), 6, "9 entries"),
+        (lambda k: curves.BSpline(jnp.ones((5, 2)), 3, k, closed=True), 4, "6 breakpoints"),
+        (lambda k: curves.NURBS(jnp.ones((5, 2)), jnp.ones(5), 3, k), 7, "9 entries, got 7"),
+    ],
+    ids=["bspline", "fitted-knots", "closed", "nurbs"],
+)
+def test_curves_built_under_a_transformation_check_the_knot_count(
+    transform, build, knots, message
+):
+    if transform == "jit":
+        run, arg = jax.jit(build), jnp.linspace(0.0, 1.0, knots)
+    else:
+        run, arg = jax.vmap(build), jnp.tile(jnp.linspace(0.0, 1.0, knots), (2, 1))
+    with pytest.raises(ValueError, match=message):
+        run(arg)
