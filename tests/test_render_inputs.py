@@ -152,3 +152,10 @@ def test_valid_calls_agree_eagerly_and_under_jit():
     rendering = _rendering()
     assert jax.jit(lambda c: _rendering(color=c).color)(IMAGE).shape == rendering.color.shape
     assert _rendering(attributes=None).attributes is None
+
+
+@pytest.mark.parametrize("name", ["soft_silhouette", "soft_silhouette_dense"])
+def test_silhouette_of_no_faces_is_a_clear_error(name):
+    fn = getattr(R, name)
+    with pytest.raises(ValueError, match=r"`faces` must hold at least one triangle"):
+        fn(jnp.zeros((3, 2)), jnp.zeros((0, 3), jnp.int32), (4, 5), sigma=1.0)

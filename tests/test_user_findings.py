@@ -75,9 +75,7 @@ def test_ellipse_call_refuses_non_finite_t(t):
     ],
     ids=["bspline", "fitted-knots", "closed", "nurbs"],
 )
-def test_curves_built_under_a_transformation_check_the_knot_count(
-    transform, build, knots, message
-):
+def test_curves_built_under_a_transformation_check_the_knot_count(transform, build, knots, message):
     if transform == "jit":
         run, arg = jax.jit(build), jnp.linspace(0.0, 1.0, knots)
     else:

@@ -245,6 +245,8 @@ def silhouette_inputs(vertices_2d, faces, shape, sigma):
     shape = static_shape(shape)
     vertices_2d = finite_rows(vertices_2d, "vertices_2d", (None, 2))
     faces = faces_of(faces, vertices_2d, "vertices_2d")
+    if faces.shape[0] == 0:
+        raise ValueError("`faces` must hold at least one triangle, got shape (0, 3)")
     sigma = as_float(sigma, "sigma").astype(vertices_2d.dtype)
     check_shape(sigma, "sigma", ())
     return shape, vertices_2d, faces, sigma
