@@ -59,7 +59,9 @@ def pixel_to_index(xy: Int[Array, "*batch 2"], shape: tuple[int, int]) -> Int[Ar
     - `xy`: pixel positions, shape `(..., 2)`.
     - `shape`: the image shape `(H, W)`.
 
-    **Returns:** `(row, col)` indices, shape `(..., 2)`.
+    **Returns:** `(row, col)` indices, shape `(..., 2)`. The map is affine and exact for
+    any numbers: a fractional position gives a fractional index, and a position off the
+    image an index outside `[0, H) x [0, W)` (bounds are the caller's to check).
     """
     height, _ = static_shape(shape)
     xy = as_numeric(xy, "xy")

@@ -82,3 +82,10 @@ def test_curves_built_under_a_transformation_check_the_knot_count(transform, bui
         run, arg = jax.vmap(build), jnp.tile(jnp.linspace(0.0, 1.0, knots), (2, 1))
     with pytest.raises(ValueError, match=message):
         run(arg)
+
+
+def test_mesh_transform_names_the_matrix():
+    m = mesh.Mesh(VERTICES, FACES)
+    np.testing.assert_allclose(m.transform(jnp.eye(4) * 2.0).vertices, VERTICES)  # w = 2 too
+    with pytest.raises(ValueError, match="`matrix` must have shape"):
+        m.transform(jnp.eye(3))

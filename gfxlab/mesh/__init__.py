@@ -324,6 +324,8 @@ class Mesh(eqx.Module):
         Explicit `normals` are dropped (they would need the inverse transpose); the
         renderer then uses `vertex_normals`.
         """
+        matrix = as_float(matrix, "matrix")
+        check_shape(matrix, "matrix", (4, 4))
         return self._with(vertices=tf.apply(matrix, self.vertices), normals=None, normal_faces=None)
 
     def with_colors(self, colors) -> Mesh:
