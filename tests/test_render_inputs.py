@@ -159,3 +159,23 @@ def test_silhouette_of_no_faces_is_a_clear_error(name):
     fn = getattr(R, name)
     with pytest.raises(ValueError, match=r"`faces` must hold at least one triangle"):
         fn(jnp.zeros((3, 2)), jnp.zeros((0, 3), jnp.int32), (4, 5), sigma=1.0)
+
+
+def test_face_index_out_of_range_is_refused_by_interpolate_and_antialias(maybe_jit):
+    attributes = jnp.array([[1.0, 0.0], [0.0, 1.0], [2.0, 2.0]])
+    faces = jnp.array([[0, 1, 2]])
+    bary = jnp.array([[0.2, 0.3, 0.5], [1.0, 0.0, 0.0]])
+    good = maybe_jit(R.interpolate)(attributes, faces, jnp.array([0, -1]), bary)
+    np.testing.assert_allclose(
+        good[0], 0.2 * attributes[0] + 0.3 * attributes[1] + 0.5 * attributes[2]
+    )
+    for bad in ([3, -1], [-2, 0]):
+        with pytest.raises(Exception, match="`face_index` must be -1 \\(background\\) or a face"):
+            maybe_jit(R.interpolate)(attributes, faces, jnp.array(bad), bary)
+    image = jnp.zeros((4, 4, 3))
+    index = jnp.full((4, 4), -1).at[1, 1].set(5)
+    tri = jnp.array([[[0.0, 0.0], [3.0, 0.0], [0.0, 3.0]]])
+    with pytest.raises(Exception, match="`face_index` must be -1 \\(background\\) or a face"):
+        maybe_jit(R.antialias)(image, index, jnp.ones((4, 4)), tri, faces)
+    with pytest.raises(Exception, match="`faces` must be vertex indices >= 0"):
+        maybe_jit(R.antialias)(image, index.at[1, 1].set(0), jnp.ones((4, 4)), tri, faces - 4)

@@ -89,3 +89,18 @@ def test_mesh_transform_names_the_matrix():
     np.testing.assert_allclose(m.transform(jnp.eye(4) * 2.0).vertices, VERTICES)  # w = 2 too
     with pytest.raises(ValueError, match="`matrix` must have shape"):
         m.transform(jnp.eye(3))
+
+
+def test_mesh_refuses_an_empty_texture():
+    faces = FACES[:2]
+    with pytest.raises(ValueError, match="`texture` must hold at least one texel"):
+        mesh.Mesh(
+            VERTICES, faces, uvs=jnp.full((4, 2), 0.5), uv_faces=faces, texture=jnp.zeros((0, 4, 3))
+        )
+
+
+def test_phosphor_frames_decay_is_a_scalar():
+    beam = raster.raster_scan(jnp.full((2, 2), 0.5))
+    assert raster.phosphor_frames(beam, (2, 2), decay=0.5).shape[1:] == (2, 2)
+    with pytest.raises(ValueError, match="`decay` must have shape"):
+        raster.phosphor_frames(beam, (2, 2), decay=jnp.array([0.5, 0.5]))

@@ -293,6 +293,10 @@ class Mesh(eqx.Module):
         _check_indexed(self, "normals", "normal_faces")
         if self.texture is not None and self.uvs is None:
             raise ValueError("a `texture` needs texture coordinates `uvs` and `uv_faces`")
+        if self.texture is not None and 0 in self.texture.shape:
+            raise ValueError(
+                f"`texture` must hold at least one texel, got shape {self.texture.shape}"
+            )
 
     @property
     def num_vertices(self) -> int:

@@ -258,6 +258,7 @@ def phosphor_frames(
             f"size limit), got {work}"
         )
     decay = finite_arg(array_arg(decay, "decay"), "decay")
+    check_shape(decay, "decay", ())
     decay = range_check(decay, "decay", low=0, high=1)
     return _phosphor_frames(beam, decay, (height, width), num_frames, refreshes)
 

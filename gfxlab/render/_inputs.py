@@ -11,7 +11,6 @@ import jax
 import jax.numpy as jnp
 
 from .._checks import (
-    MAX_ELEMENTS,
     as_float,
     as_int,
     check_finite,
@@ -208,11 +207,23 @@ def finite_rows(x, name: str, shape: tuple, what: str = "", dtype=None):
     return check_finite(x, name)
 
 
+def face_index_of(face_index, num_faces: int):
+    """Per-pixel face indices: integers, each a face (`0 <= i < num_faces`) or -1 for
+    the background."""
+    face_index = as_int(face_index, "face_index", "face indices")
+    bad = (face_index < -1) | (face_index >= num_faces)
+    return value_error_if(
+        face_index,
+        bad,
+        f"`face_index` must be -1 (background) or a face, 0 <= index < {num_faces}",
+    )
+
+
 def interpolate_inputs(attributes, faces, face_index, barycentrics):
     """`interpolate`'s arguments, checked: `(attributes, faces, face_index, barycentrics)`."""
     attributes = finite_rows(attributes, "attributes", (None, None))
     faces = faces_of(faces, attributes, "attributes")
-    face_index = as_int(face_index, "face_index", "face indices")
+    face_index = face_index_of(face_index, faces.shape[0])
     barycentrics = finite_rows(
         barycentrics,
         "barycentrics",
@@ -228,13 +239,16 @@ def antialias_inputs(image, face_index, depth, triangles_2d, faces):
     faces)`."""
     image = finite_rows(image, "image", (None, None, None))
     pixels = "the pixel shape (H, W) of `image`"
-    face_index = as_int(face_index, "face_index", "face indices")
-    check_shape(face_index, "face_index", image.shape[:2], pixels)
+    check_shape(
+        as_int(face_index, "face_index", "face indices"), "face_index", image.shape[:2], pixels
+    )
     depth = finite_rows(depth, "depth", image.shape[:2], pixels, image.dtype)
     triangles_2d = finite_rows(triangles_2d, "triangles_2d", (None, 3, 2), dtype=image.dtype)
-    faces = check_faces(as_int(faces, "faces", "vertex indices"), MAX_ELEMENTS)
+    faces = as_int(faces, "faces", "vertex indices")
     per_triangle = "one row per triangle of `triangles_2d`"
     check_shape(faces, "faces", (triangles_2d.shape[0], 3), per_triangle)
+    face_index = face_index_of(face_index, triangles_2d.shape[0])
+    faces = value_error_if(faces, faces < 0, "`faces` must be vertex indices >= 0")
     return image, face_index, depth, triangles_2d, faces
 
 
