@@ -1,10 +1,11 @@
 """The lab runner behind `python -m gfxlab labs` and `python -m gfxlab run LAB|all`.
 
-`run_lab(path, out_dir)` executes one notebook in a fresh kernel and writes
-`out_dir/<name>.html`; it is what the CLI and the test suite call. A cell that fails
-or runs past the timeout raises `LabError` naming the cell, after the partial HTML
-(everything up to and including that cell) has been written. `run_all` runs every
-lab and writes an `index.html` gallery next to the pages.
+Its public face is `gfxlab.labs` (`run_lab`, `run_all`, `list_labs`, `LabError`, ...),
+which imports this module on first use. `run_lab(path, out_dir)` executes one notebook
+in a fresh kernel and writes `out_dir/<name>.html`; a cell that fails or runs past the
+timeout raises `LabError` naming the cell, after the partial HTML (everything up to and
+including that cell) has been written. `run_all` runs every lab and writes an
+`index.html` gallery next to the pages.
 
 The kernels get the JAX persistent compilation cache (`jax_cache_dir()`), so a second
 run of a lab skips most XLA compilation, and `GFXLAB_HEADLESS=1`, which makes
@@ -14,7 +15,6 @@ run of a lab skips most XLA compilation, and `GFXLAB_HEADLESS=1`, which makes
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import html
 import os
 import pathlib
@@ -23,7 +23,9 @@ import sys
 import tempfile
 import time
 
-from .labs import HEADLESS_ENV, lab_xla_flags  # "1" in the kernels the runner starts
+# HEADLESS_ENV is "1" in the kernels the runner starts; the public face of this module is
+# `gfxlab.labs` (run_lab, run_all, ...), which imports it lazily.
+from .labs import CACHE_ENV, HEADLESS_ENV, LabError, LabRun, lab_xla_flags
 
 # nbformat validates notebooks with jsonschema, which imports `rfc3987_syntax` for its
 # "iri" format when that package is installed (JupyterLab pulls it in); it builds an
@@ -31,9 +33,6 @@ from .labs import HEADLESS_ENV, lab_xla_flags  # "1" in the kernels the runner s
 # notebook schema uses no "iri" format, so the runner marks the package absent (jsonschema
 # then skips that one checker), unless something imported it already.
 sys.modules.setdefault("rfc3987_syntax", None)
-
-#: Environment variable overriding where the JAX compilation cache lives.
-CACHE_ENV = "GFXLAB_JAX_CACHE"
 
 
 def labs_dir() -> pathlib.Path:
@@ -47,12 +46,7 @@ def labs_dir() -> pathlib.Path:
 
 
 def jax_cache_dir() -> pathlib.Path:
-    """The user's JAX compilation cache: `$GFXLAB_JAX_CACHE`, else JAX's own
-    `$JAX_COMPILATION_CACHE_DIR`, else `~/.cache/gfxlab/jax`.
-
-    (`$XDG_CACHE_HOME/gfxlab/jax` when `XDG_CACHE_HOME` is set.) It is private to the
-    user running the labs; nothing else reads it.
-    """
+    """`gfxlab.labs.jax_cache_dir`: the lab kernels' JAX compilation cache."""
     for name in (CACHE_ENV, "JAX_COMPILATION_CACHE_DIR"):
         env = os.environ.get(name)
         if env:
@@ -115,46 +109,6 @@ def find_lab(name: str, directory: pathlib.Path | None = None) -> pathlib.Path:
     raise LookupError(f"{name!r} {what}; the labs are: {names}")
 
 
-class LabError(RuntimeError):
-    """A lab did not run to the end: a cell raised, ran past the timeout, or the kernel died.
-
-    **Fields:** `lab` (the notebook), `cell_index` (the code cell's position in the
-    notebook, counting every cell from 0, or None), `code_cell` (its number among the
-    code cells, from 1, as the message says), `cell_source`, `reason` (the error or
-    timeout, one line), `html_path` (the partial HTML copy, written before raising),
-    `timed_out`.
-    """
-
-    def __init__(
-        self, lab, cell_index, cell_source, reason, html_path, *, timed_out=False, code_cell=None
-    ):
-        self.lab = pathlib.Path(lab)
-        self.cell_index = cell_index
-        self.code_cell = code_cell
-        self.cell_source = cell_source
-        self.reason = reason
-        self.html_path = html_path
-        self.timed_out = timed_out
-        where = "before any cell ran" if cell_index is None else f"in {self.where}"
-        lines = (cell_source or "").strip().splitlines()
-        shown = "\n".join("    " + line for line in lines[:8])
-        if len(lines) > 8:
-            shown += f"\n    ... ({len(lines) - 8} more lines)"
-        message = f"{self.lab.name}: {where}: {reason}"
-        if shown:
-            message += f"\n  the cell:\n{shown}"
-        message += f"\n  partial HTML (outputs up to this cell): {html_path}"
-        super().__init__(message)
-
-    @property
-    def where(self) -> str:
-        """The failing cell, as Jupyter users count: "code cell 2 (cell 3 of the notebook)"."""
-        if self.cell_index is None:
-            return "no cell"
-        place = f"cell {self.cell_index + 1} of the notebook"
-        return f"code cell {self.code_cell} ({place})" if self.code_cell else place
-
-
 def _html(nb) -> str:
     from nbconvert import HTMLExporter
 
@@ -181,27 +135,8 @@ def _note(cell, text: str) -> None:
     )
 
 
-def run_lab(
-    path: pathlib.Path | str,
-    out_dir: pathlib.Path | str,
-    *,
-    timeout: float = 600,
-    cache: bool = True,
-) -> pathlib.Path:
-    """Execute a lab notebook top to bottom in a fresh kernel and write it as HTML.
-
-    **Arguments:**
-
-    - `path`: the `.ipynb` file.
-    - `out_dir`: folder for `<notebook name>.html` (created if missing).
-    - `timeout`: seconds allowed per cell.
-    - `cache`: give the kernel the JAX persistent compilation cache (`jax_cache_dir()`).
-
-    **Returns:** the path of the HTML file.
-
-    **Raises:** `LabError` (naming the cell, with the partial HTML already written) when
-    a cell raises, runs longer than `timeout`, or the kernel dies.
-    """
+def run_lab(path, out_dir, *, timeout=600, cache=True) -> pathlib.Path:
+    """`gfxlab.labs.run_lab`: execute a lab notebook in a fresh kernel, write its HTML."""
     import nbformat
     from nbclient import NotebookClient
     from nbclient.exceptions import CellExecutionError, CellTimeoutError, DeadKernelError
@@ -260,17 +195,6 @@ def run_lab(
     return html_path
 
 
-@dataclasses.dataclass
-class LabRun:
-    """One lab's result in `run_all`: where it was, its HTML, seconds, and any error."""
-
-    lab: pathlib.Path
-    title: str
-    html_path: pathlib.Path | None
-    seconds: float
-    error: LabError | None = None
-
-
 def write_index(out_dir: pathlib.Path, runs: list[LabRun]) -> pathlib.Path:
     """Write `out_dir/index.html`: one line per lab, linking its executed HTML copy."""
     rows = []
@@ -315,10 +239,7 @@ def run_all(
     cache: bool = True,
     log=None,
 ) -> tuple[pathlib.Path, list[LabRun]]:
-    """Run every lab (or `labs`), write their HTML and an `index.html`; never stops early.
-
-    **Returns:** the index path and one `LabRun` per lab (check `.error`).
-    """
+    """`gfxlab.labs.run_all`: run every lab (or `labs`), write their HTML and an index."""
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     runs = []

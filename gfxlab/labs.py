@@ -23,8 +23,13 @@ compile them a third faster at the same optimisation level, with the same result
 keep XLA's own choice, set `XLA_FLAGS=--xla_cpu_use_fusion_emitters=true` before
 `make lab` or `python -m gfxlab run` (a user's setting of that flag always wins).
 
+The lab runner is here too: `list_labs()`, `find_lab(name)`, `run_lab(path, out_dir)`
+(one notebook executed headless in a fresh kernel, written as HTML; a failing cell raises
+`LabError` naming it) and `run_all(out_dir)` (every lab and an `index.html` gallery), the
+functions behind `python -m gfxlab labs` and `python -m gfxlab run LAB|all`.
+
 Importing this module is light: ipywidgets is imported only when `interact` is called,
-JAX never.
+the notebook machinery (nbclient, nbconvert) only when a lab is run, JAX never.
 """
 
 from __future__ import annotations
@@ -36,13 +41,34 @@ import pathlib
 import subprocess
 import sys
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
-__all__ = ["interact", "headless", "lab_xla_flags", "HEADLESS_ENV", "LAB_XLA_FLAG"]
+__all__ = [
+    "interact",
+    "headless",
+    "lab_xla_flags",
+    "HEADLESS_ENV",
+    "LAB_XLA_FLAG",
+    "list_labs",
+    "find_lab",
+    "lab_title",
+    "run_lab",
+    "run_all",
+    "write_index",
+    "LabError",
+    "LabRun",
+    "jax_cache_dir",
+    "kernel_env",
+    "CACHE_ENV",
+]
 
 #: Environment variable that marks a headless run: set to "1" by the lab runner in the
 #: kernels it starts (no frontend is attached to them).
 HEADLESS_ENV = "GFXLAB_HEADLESS"
+
+
+#: Environment variable overriding where the lab kernels' JAX compilation cache lives.
+CACHE_ENV = "GFXLAB_JAX_CACHE"
 
 
 def headless() -> bool:
@@ -162,3 +188,209 @@ def interact(fn: Callable[..., Any], /, *, manual: bool = False, **controls: Any
         return panel.result
     values = {w._kwarg: w.get_interact_value() for w in panel.kwargs_widgets}
     return fn(**values)
+
+
+# The lab runner. Its work is done in `gfxlab._runner`, imported on the first call so that
+# a notebook importing `interact` does not load the runner's machinery.
+
+
+class LabError(RuntimeError):
+    """A lab did not run to the end: a cell raised, ran past the timeout, or the kernel died.
+
+    **Fields:** `lab` (the notebook), `cell_index` (the code cell's position in the
+    notebook, counting every cell from 0, or None), `code_cell` (its number among the
+    code cells, from 1, as the message says), `cell_source`, `reason` (the error or
+    timeout, one line), `html_path` (the partial HTML copy, written before raising),
+    `timed_out`.
+    """
+
+    def __init__(
+        self, lab, cell_index, cell_source, reason, html_path, *, timed_out=False, code_cell=None
+    ):
+        """The fields as listed above; the message is built from them."""
+        self.lab = pathlib.Path(lab)
+        self.cell_index = cell_index
+        self.code_cell = code_cell
+        self.cell_source = cell_source
+        self.reason = reason
+        self.html_path = html_path
+        self.timed_out = timed_out
+        where = "before any cell ran" if cell_index is None else f"in {self.where}"
+        lines = (cell_source or "").strip().splitlines()
+        shown = "\n".join("    " + line for line in lines[:8])
+        if len(lines) > 8:
+            shown += f"\n    ... ({len(lines) - 8} more lines)"
+        message = f"{self.lab.name}: {where}: {reason}"
+        if shown:
+            message += f"\n  the cell:\n{shown}"
+        message += f"\n  partial HTML (outputs up to this cell): {html_path}"
+        super().__init__(message)
+
+    @property
+    def where(self) -> str:
+        """The failing cell, as Jupyter users count: "code cell 2 (cell 3 of the notebook)"."""
+        if self.cell_index is None:
+            return "no cell"
+        place = f"cell {self.cell_index + 1} of the notebook"
+        return f"code cell {self.code_cell} ({place})" if self.code_cell else place
+
+
+class LabRun(NamedTuple):
+    """One lab's result in `run_all`.
+
+    **Fields:** `lab` (the notebook), `title` (its first heading), `html_path` (its
+    executed HTML copy, partial when it failed; None if none was written), `seconds` (the
+    run time) and `error` (the `LabError`, or None when the lab ran to the end).
+    """
+
+    lab: pathlib.Path
+    title: str
+    html_path: pathlib.Path | None
+    seconds: float
+    error: LabError | None = None
+
+
+def list_labs(directory: pathlib.Path | str | None = None) -> list[pathlib.Path]:
+    """The numbered lab notebooks (`NN_topic.ipynb`), in syllabus order.
+
+    **Arguments:**
+
+    - `directory`: the folder to look in; `None` means `$GFXLAB_LABS`, else the labs
+      shipped with gfxlab.
+
+    **Returns:** the notebook paths, sorted (an empty list when there are none).
+    """
+    from . import _runner
+
+    return _runner.list_labs(None if directory is None else pathlib.Path(directory))
+
+
+def find_lab(name: str, directory: pathlib.Path | str | None = None) -> pathlib.Path:
+    """A lab by path, number (`3`, `"03"`) or name (`"03_transforms"`, `"transforms"`).
+
+    **Arguments:**
+
+    - `name`: an existing `.ipynb` path, a lab number or a part of a lab's name.
+    - `directory`: where to look, as in `list_labs`.
+
+    **Returns:** the notebook's path.
+
+    **Raises:** `LookupError` (listing the labs) when `name` matches no lab or several.
+    """
+    from . import _runner
+
+    return _runner.find_lab(str(name), None if directory is None else pathlib.Path(directory))
+
+
+def lab_title(path: pathlib.Path | str) -> str:
+    """A notebook's title.
+
+    **Arguments:**
+
+    - `path`: the `.ipynb` file.
+
+    **Returns:** its first Markdown heading, without the `#`s (the file's name if it has
+    no heading).
+    """
+    from . import _runner
+
+    return _runner.lab_title(pathlib.Path(path))
+
+
+def run_lab(
+    path: pathlib.Path | str,
+    out_dir: pathlib.Path | str,
+    *,
+    timeout: float = 600,
+    cache: bool = True,
+) -> pathlib.Path:
+    """Execute a lab notebook top to bottom in a fresh, headless kernel and write it as HTML.
+
+    The executed notebook is written next to the HTML copy (`out_dir/<name>.ipynb`).
+
+    **Arguments:**
+
+    - `path`: the `.ipynb` file (see `find_lab` to name a lab by number).
+    - `out_dir`: folder for `<notebook name>.html` (created if missing).
+    - `timeout`: seconds allowed per cell, a positive number.
+    - `cache`: give the kernel the JAX persistent compilation cache (`jax_cache_dir()`).
+
+    **Returns:** the path of the HTML file.
+
+    **Raises:** `LabError` (naming the cell, with the partial HTML already written) when
+    a cell raises, runs longer than `timeout`, or the kernel dies; `ValueError` for a
+    `timeout` that is not positive.
+    """
+    from . import _runner
+
+    return _runner.run_lab(path, out_dir, timeout=timeout, cache=cache)
+
+
+def run_all(
+    out_dir: pathlib.Path | str,
+    *,
+    labs: list[pathlib.Path] | None = None,
+    timeout: float = 600,
+    cache: bool = True,
+    log: Callable[[LabRun], Any] | None = None,
+) -> tuple[pathlib.Path, list[LabRun]]:
+    """Run every lab (or `labs`), write their HTML and an `index.html`; never stops early.
+
+    **Arguments:**
+
+    - `out_dir`: folder for the HTML copies and the index (created if missing).
+    - `labs`: the notebooks to run; `None` means `list_labs()`.
+    - `timeout`, `cache`: as in `run_lab`, for every lab.
+    - `log`: called with each lab's `LabRun` as soon as it has run (e.g. to print it).
+
+    **Returns:** the path of `index.html` and one `LabRun` per lab, in order (a failed
+    lab has its `LabError` in `.error`).
+    """
+    from . import _runner
+
+    return _runner.run_all(out_dir, labs=labs, timeout=timeout, cache=cache, log=log)
+
+
+def write_index(out_dir: pathlib.Path | str, runs: list[LabRun]) -> pathlib.Path:
+    """Write the gallery page `out_dir/index.html`: one line per lab, linking its HTML copy.
+
+    **Arguments:**
+
+    - `out_dir`: the folder holding the labs' HTML copies.
+    - `runs`: one `LabRun` per lab (its status and time are shown; a failure in red).
+
+    **Returns:** the path of `index.html`.
+    """
+    from . import _runner
+
+    return _runner.write_index(pathlib.Path(out_dir), runs)
+
+
+def jax_cache_dir() -> pathlib.Path:
+    """Where the lab kernels keep the JAX compilation cache.
+
+    `$GFXLAB_JAX_CACHE` (`CACHE_ENV`), else JAX's own `$JAX_COMPILATION_CACHE_DIR`, else
+    `~/.cache/gfxlab/jax` (`$XDG_CACHE_HOME/gfxlab/jax` when `XDG_CACHE_HOME` is set). It
+    is private to the user running the labs; nothing else reads it.
+
+    **Returns:** the folder's path (it may not exist yet).
+    """
+    from . import _runner
+
+    return _runner.jax_cache_dir()
+
+
+def kernel_env(*, cache: bool = True) -> dict[str, str]:
+    """The environment a lab kernel runs with (e.g. to run the labs with another tool).
+
+    **Arguments:**
+
+    - `cache`: switch on the JAX persistent compilation cache in `jax_cache_dir()`
+      (created if missing).
+
+    **Returns:** this process's environment with `HEADLESS_ENV` set to `"1"`, the labs'
+    XLA flag (`lab_xla_flags`) and inline matplotlib figures.
+    """
+    from . import _runner
+
+    return _runner.kernel_env(cache=cache)

@@ -160,16 +160,16 @@ def pytest_sessionfinish(session, exitstatus):
         return
     import pathlib
 
-    from gfxlab import _runner
+    from gfxlab import labs
 
     out = pathlib.Path(out)
     runs = [
-        _runner.LabRun(lab, _runner.lab_title(lab), out / f"{lab.stem}.html", 0.0)
-        for lab in _runner.list_labs()
+        labs.LabRun(lab, labs.lab_title(lab), out / f"{lab.stem}.html", 0.0)
+        for lab in labs.list_labs()
         if (out / f"{lab.stem}.html").is_file()
     ]
     if runs:
-        _runner.write_index(out, runs)
+        labs.write_index(out, runs)
 
 
 # `GFXLAB_COMPILE_PROFILE=FILE pytest ...` appends one line per test phase to FILE: the

@@ -12,9 +12,9 @@ import time
 
 import pytest
 
-from gfxlab import _runner
+from gfxlab import labs as glabs
 
-LABS = _runner.list_labs()
+LABS = glabs.list_labs()
 #: Seconds a lab may take in the test run. The goal is 30 s on an idle laptop (not met by
 #: every lab yet: labs 04-08 take 35-65 s from a cold cache); in CI two labs run at once
 #: beside other tests, so this bound only catches a lab that hangs or regresses badly.
@@ -44,7 +44,7 @@ def test_lab_runs_top_to_bottom(lab, labs_out, monkeypatch):
     if lab.name[:2] in USER_FLAG_LABS:
         monkeypatch.setenv("XLA_FLAGS", os.environ.get("GFXLAB_USER_XLA_FLAGS", ""))
     start = time.perf_counter()
-    html = _runner.run_lab(lab, labs_out, timeout=BUDGET)
+    html = glabs.run_lab(lab, labs_out, timeout=BUDGET)
     seconds = time.perf_counter() - start
     assert html.is_file() and html.stat().st_size > 10_000
     assert (labs_out / lab.name).is_file(), "the executed notebook is kept for the docs"

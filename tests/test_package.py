@@ -7,7 +7,7 @@ import sys
 import nbformat
 import pytest
 
-from gfxlab import _runner
+from gfxlab import labs as glabs
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -26,6 +26,16 @@ def test_imports_stay_light(module):
         "if m in sys.modules))"
     )
     assert heavy == ""
+
+
+def test_the_lab_runner_is_public_and_gfxlab_labs_stays_light():
+    loaded = _python(
+        "import sys, gfxlab.labs; print(' '.join(m for m in ('gfxlab._runner', 'nbformat', "
+        "'nbclient', 'ipywidgets', 'jax', 'argparse') if m in sys.modules))"
+    )
+    assert loaded == ""
+    for name in ("run_lab", "run_all", "list_labs", "find_lab", "LabError", "LabRun"):
+        assert name in glabs.__all__ and "**" in getattr(glabs, name).__doc__, name
 
 
 def test_import_gfxlab_is_fast_after_first_import():
@@ -75,11 +85,11 @@ def test_run_writes_html_and_reports_failure(tmp_path, monkeypatch):
     _notebook(labs / "01_good.ipynb", "print(6 * 7)")
     _notebook(labs / "02_bad.ipynb", "raise RuntimeError('boom')")
     monkeypatch.setenv("GFXLAB_LABS", str(labs))
-    assert [p.stem for p in _runner.list_labs()] == ["01_good", "02_bad"]
-    assert _runner.find_lab("1").stem == "01_good"
-    assert _runner.find_lab("bad").stem == "02_bad"
+    assert [p.stem for p in glabs.list_labs()] == ["01_good", "02_bad"]
+    assert glabs.find_lab("1").stem == "01_good"
+    assert glabs.find_lab("bad").stem == "02_bad"
     with pytest.raises(LookupError, match="no lab"):
-        _runner.find_lab("missing")
+        glabs.find_lab("missing")
 
     out = tmp_path / "out"
     good = subprocess.run(

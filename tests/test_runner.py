@@ -13,7 +13,6 @@ import nbformat
 import pytest
 
 import gfxlab.labs as glabs
-from gfxlab import _runner
 
 # A 1x1 GIF, to check that animations embedded as <img> survive into the HTML copy.
 GIF = base64.b64encode(
@@ -36,7 +35,7 @@ def labs(tmp_path, monkeypatch):
     folder = tmp_path / "labs"
     folder.mkdir()
     monkeypatch.setenv("GFXLAB_LABS", str(folder))
-    monkeypatch.setenv(_runner.CACHE_ENV, str(tmp_path / "jax-cache"))
+    monkeypatch.setenv(glabs.CACHE_ENV, str(tmp_path / "jax-cache"))
     return folder
 
 
@@ -53,7 +52,7 @@ def test_run_all_writes_pages_and_an_index(labs, tmp_path):
         labs / "02_bad.ipynb", "x = 1", "raise ValueError('the figure lies')", title="Bad lab"
     )
     out = tmp_path / "site"
-    index, runs = _runner.run_all(out, timeout=120)
+    index, runs = glabs.run_all(out, timeout=120)
 
     assert [r.lab.stem for r in runs] == ["01_good", "02_bad"]
     good, bad = runs
@@ -79,17 +78,36 @@ def test_run_all_writes_pages_and_an_index(labs, tmp_path):
     )
 
 
+def test_write_index_from_runs_made_by_hand(tmp_path):
+    # e.g. labs run one by one with run_lab, then one gallery page for all of them
+    lab = _notebook(tmp_path / "05_curves.ipynb", "print(1)", title="Curves & <surfaces>")
+    assert glabs.lab_title(lab) == "Curves & <surfaces>"
+    untitled = nbformat.v4.new_notebook()
+    untitled.cells = [nbformat.v4.new_markdown_cell("no heading"), nbformat.v4.new_code_cell("2")]
+    nbformat.write(untitled, tmp_path / "06_x.ipynb")
+    assert glabs.lab_title(str(tmp_path / "06_x.ipynb")) == "06_x"
+    error = glabs.LabError(lab, 2, "1/0", "ZeroDivisionError: division by zero", None, code_cell=1)
+    runs = [
+        glabs.LabRun(lab, glabs.lab_title(lab), tmp_path / "05_curves.html", 1.25),
+        glabs.LabRun(tmp_path / "06_x.ipynb", "X", None, 3.0, error),
+    ]
+    text = glabs.write_index(tmp_path, runs).read_text()
+    assert '<a href="05_curves.html">Curves &amp; &lt;surfaces&gt;</a>' in text
+    assert "1.2 s" in text or "1.3 s" in text
+    assert "failed in code cell 1 (cell 3 of the notebook)</span>: ZeroDivisionError" in text
+
+
 def test_run_lab_names_the_failing_cell(labs, tmp_path):
     path = _notebook(labs / "03_oops.ipynb", "print('first')", "assert 1 + 1 == 3, 'arithmetic'")
-    with pytest.raises(_runner.LabError) as info:
-        _runner.run_lab(path, tmp_path / "out", timeout=120, cache=False)
+    with pytest.raises(glabs.LabError) as info:
+        glabs.run_lab(path, tmp_path / "out", timeout=120, cache=False)
     err = info.value
     assert err.cell_index == 2 and "AssertionError: arithmetic" in str(err)
     assert "assert 1 + 1 == 3" in str(err) and str(err.html_path) in str(err)
     page = err.html_path.read_text()
     assert "first" in page and "stopped here" in page
     with pytest.raises(ValueError, match="timeout"):
-        _runner.run_lab(path, tmp_path / "out", timeout=0)
+        glabs.run_lab(path, tmp_path / "out", timeout=0)
 
 
 def test_cli_timeout_is_a_clear_message_with_partial_html(labs, tmp_path):
@@ -139,24 +157,24 @@ def test_cli_rejects_a_bad_timeout_and_an_unknown_lab(labs):
 
 
 def test_jax_cache_dir_is_the_users_and_overridable(monkeypatch, tmp_path):
-    monkeypatch.delenv(_runner.CACHE_ENV, raising=False)
+    monkeypatch.delenv(glabs.CACHE_ENV, raising=False)
     monkeypatch.delenv("JAX_COMPILATION_CACHE_DIR", raising=False)
     monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
-    assert _runner.jax_cache_dir() == pathlib.Path.home() / ".cache" / "gfxlab" / "jax"
+    assert glabs.jax_cache_dir() == pathlib.Path.home() / ".cache" / "gfxlab" / "jax"
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
-    assert _runner.jax_cache_dir() == tmp_path / "xdg" / "gfxlab" / "jax"
+    assert glabs.jax_cache_dir() == tmp_path / "xdg" / "gfxlab" / "jax"
     monkeypatch.setenv("JAX_COMPILATION_CACHE_DIR", str(tmp_path / "jax-own"))
-    assert _runner.jax_cache_dir() == tmp_path / "jax-own"  # e.g. a cold cache for timing
-    monkeypatch.setenv(_runner.CACHE_ENV, str(tmp_path / "mine"))
-    env = _runner.kernel_env()
+    assert glabs.jax_cache_dir() == tmp_path / "jax-own"  # e.g. a cold cache for timing
+    monkeypatch.setenv(glabs.CACHE_ENV, str(tmp_path / "mine"))
+    env = glabs.kernel_env()
     assert env["JAX_COMPILATION_CACHE_DIR"] == str(tmp_path / "mine")
     monkeypatch.delenv("JAX_COMPILATION_CACHE_DIR", raising=False)
-    assert "JAX_COMPILATION_CACHE_DIR" not in _runner.kernel_env(cache=False)
+    assert "JAX_COMPILATION_CACHE_DIR" not in glabs.kernel_env(cache=False)
 
 
 def test_the_runner_marks_its_kernels_headless():
-    assert _runner.HEADLESS_ENV == glabs.HEADLESS_ENV
-    assert _runner.kernel_env(cache=False)[glabs.HEADLESS_ENV] == "1"
+    assert glabs.HEADLESS_ENV == "GFXLAB_HEADLESS"
+    assert glabs.kernel_env(cache=False)[glabs.HEADLESS_ENV] == "1"
 
 
 def test_lab_kernels_get_the_labs_xla_flag_once_and_the_users_choice_wins(monkeypatch, tmp_path):
@@ -176,7 +194,7 @@ def test_lab_kernels_get_the_labs_xla_flag_once_and_the_users_choice_wins(monkey
     mine = "--xla_cpu_use_fusion_emitters=true"
     assert glabs.lab_xla_flags(mine) == mine
     monkeypatch.setenv("XLA_FLAGS", mine)
-    assert _runner.kernel_env(cache=False)["XLA_FLAGS"] == mine
+    assert glabs.kernel_env(cache=False)["XLA_FLAGS"] == mine
     with pytest.raises(TypeError, match="`flags`"):
         glabs.lab_xla_flags(["--a"])
 
