@@ -165,6 +165,28 @@ def common_float(*arrays, names: Sequence[str]) -> list[jax.Array]:
     return [a if a.dtype == dtype else a.astype(dtype) for a in arrays]
 
 
+def follow_float(*values, names: Sequence[str], default=None) -> list[jax.Array]:
+    """Several values as floats of one dtype, led by those given as arrays.
+
+    The dtype is the common one of the values that are (non-weakly typed) NumPy or JAX
+    arrays; Python numbers, lists and tuples (e.g. a default `1.0` or `(0.0, 1.0, 0.0)`)
+    follow it instead of promoting it, so float32 arrays stay float32 under
+    `jax_enable_x64`. With no array among `values` the dtype is `default` (e.g. that of a
+    related field), else JAX's default float dtype.
+    """
+    arrays = [as_float(v, n) for v, n in zip(values, names, strict=True)]
+    given = [
+        a.dtype
+        for v, a in zip(values, arrays, strict=True)
+        if isinstance(v, np.ndarray | np.generic | jax.Array) and not getattr(v, "weak_type", False)
+    ]
+    if given:
+        dtype = jnp.result_type(*given)
+    else:
+        dtype = jnp.result_type(float) if default is None else jnp.dtype(default)
+    return [a if a.dtype == dtype else a.astype(dtype) for a in arrays]
+
+
 def check_last_dim(x: jax.Array, name: str, sizes: Sequence[int], what: str = "") -> int:
     """Check that `x.shape[-1]` is one of `sizes`; return it."""
     if x.ndim == 0 or x.shape[-1] not in sizes:

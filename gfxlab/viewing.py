@@ -33,8 +33,8 @@ from ._checks import (
     checked_jit,
     checked_unit,
     common_finite,
-    common_float,
     finite_float,
+    follow_float,
     is_traced,
     safe_norm,
     static_shape,
@@ -373,19 +373,28 @@ class Camera(eqx.Module):
         `perspective`).
         """
         # Only what depends on several arguments is made here (the converters and
-        # `__check_init__` check the fields): one dtype for the pose and one for the lens,
-        # and with `rotation`, `target` and `up` from its frame.
-        eye = _vector_field("eye")(eye)
-        self.fov_y, self.aspect, self.near, self.far = common_float(
-            fov_y, aspect, near, far, names=("fov_y", "aspect", "near", "far")
+        # `__check_init__` check the fields): one dtype for the pose, led by its array
+        # arguments, one for the lens (the pose's when the lens is Python numbers, so that
+        # the float defaults keep float32 arrays float32 under x64), and with `rotation`,
+        # `target` and `up` from its frame.
+        if rotation is None:
+            pose = follow_float(eye, target, up, names=("eye", "target", "up"))
+        else:
+            pose = follow_float(eye, rotation, names=("eye", "rotation"))
+        self.fov_y, self.aspect, self.near, self.far = follow_float(
+            fov_y,
+            aspect,
+            near,
+            far,
+            names=("fov_y", "aspect", "near", "far"),
+            default=pose[0].dtype,
         )
         self.representation, self.rotation = representation, rotation
         if rotation is None:
-            self.eye, self.target, self.up = common_float(
-                eye, target, up, names=("eye", "target", "up")
-            )
+            self.eye, self.target, self.up = pose
             return
-        rotation = _rotation_field(rotation)
+        eye, rotation = _vector_field("eye")(pose[0]), _rotation_field(pose[1])
+        self.rotation = rotation
         frame = _rotation_matrix(rotation, _representation_field(representation), "rotation")
         frame = frame.astype(eye.dtype)
         self.eye, self.target, self.up = eye, eye - frame[..., :, 2], frame[..., :, 1]

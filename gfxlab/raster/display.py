@@ -257,9 +257,12 @@ def phosphor_frames(
             f"`num_frames * refreshes * len(beam)` must be <= {_MAX_FRAME_WORK} (a documented "
             f"size limit), got {work}"
         )
+    given = isinstance(decay, np.ndarray | np.generic | jax.Array)
     decay = finite_arg(array_arg(decay, "decay"), "decay")
     check_shape(decay, "decay", ())
     decay = range_check(decay, "decay", low=0, high=1)
+    if not given:  # a Python number follows the beam's dtype (float32 stays so under x64)
+        decay = np.asarray(decay, float_dtype(beam.intensity))
     return _phosphor_frames(beam, decay, (height, width), num_frames, refreshes)
 
 

@@ -25,6 +25,7 @@ from .._checks import (
     check_last_dim,
     check_shape,
     finite_float,
+    follow_float,
     safe_norm,
     safe_normalize,
     value_error_if,
@@ -71,7 +72,13 @@ class PointLight(eqx.Module):
     """
 
     position: Float[Array, "3"] = eqx.field(converter=_position)
-    intensity: Float[Array, "*C"] = eqx.field(default=1.0, converter=_intensity)
+    intensity: Float[Array, "*C"] = eqx.field(converter=_intensity)
+
+    def __init__(self, position, intensity=1.0):
+        """See the class doc; `intensity` takes `position`'s dtype unless it is an array."""
+        self.position, self.intensity = follow_float(
+            position, intensity, names=("position", "intensity")
+        )
 
     def incident(self, points):
         """Unit directions towards the light and the irradiance `(..., 1 or C)`."""
@@ -93,7 +100,13 @@ class DirectionalLight(eqx.Module):
     """
 
     direction: Float[Array, "3"] = eqx.field(converter=_direction)
-    intensity: Float[Array, "*C"] = eqx.field(default=1.0, converter=_intensity)
+    intensity: Float[Array, "*C"] = eqx.field(converter=_intensity)
+
+    def __init__(self, direction, intensity=1.0):
+        """See the class doc; `intensity` takes `direction`'s dtype unless it is an array."""
+        self.direction, self.intensity = follow_float(
+            direction, intensity, names=("direction", "intensity")
+        )
 
     def incident(self, points):
         """Unit directions towards the light and the irradiance scale at `points`."""
