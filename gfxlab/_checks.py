@@ -234,10 +234,22 @@ def check_shape(x: jax.Array, name: str, shape: tuple, what: str = "") -> None:
         tail = actual[len(actual) - len(core) :] if core else ()
         ok = all(c is None or c == a for c, a in zip(core, tail, strict=True))
     if not ok:
-        pretty = ", ".join("..." if s is Ellipsis else "n" if s is None else str(s) for s in shape)
-        pretty += "," if len(shape) == 1 else ""  # written as Python writes the tuple: (4,)
         hint = f" ({what})" if what else ""
-        raise ValueError(f"`{name}` must have shape ({pretty}){hint}, got shape {actual}")
+        raise ValueError(f"`{name}` must {_shape_words(shape)}{hint}, got shape {actual}")
+
+
+def _shape_words(shape: tuple) -> str:
+    """An expected shape in words and numbers: "have shape (4,)", "have shape (..., 3)",
+    "be a 3-D array of shape (any, 2, 2)", "be a 2-D array (any sizes)"."""
+    pretty = ", ".join("..." if s is Ellipsis else "any" if s is None else str(s) for s in shape)
+    pretty += "," if len(shape) == 1 else ""  # written as Python writes the tuple: (4,)
+    if None not in shape:
+        return f"have shape ({pretty})"
+    if Ellipsis in shape:
+        return f"have shape ({pretty}) (at least {len(shape) - 1} dimensions)"
+    if all(s is None for s in shape):
+        return f"be a {len(shape)}-D array (any sizes)"
+    return f"be a {len(shape)}-D array of shape ({pretty})"
 
 
 def static_int(value, name: str, *, minimum: int | None = None, maximum: int | None = None) -> int:

@@ -206,8 +206,16 @@ def test_shape_checks():
     assert C.check_last_dim(x, "x", (2, 3)) == 3
     with pytest.raises(ValueError, match=r"`x` must have shape \(\.\.\., 4\), got shape"):
         C.check_shape(x, "x", (..., 4))
-    with pytest.raises(ValueError, match=r"`x` must have shape \(n, 3\)"):
+    with pytest.raises(
+        ValueError, match=r"`x` must be a 2-D array of shape \(any, 3\), got shape \(5, 2, 3\)"
+    ):
         C.check_shape(x, "x", (None, 3))
+    with pytest.raises(ValueError, match=r"`x` must be a 2-D array \(any sizes\), got shape"):
+        C.check_shape(x, "x", (None, None))  # not "(n, n)": nothing says the sizes are equal
+    with pytest.raises(
+        ValueError, match=r"`x` must have shape \(\.\.\., any, 4\) \(at least 2 dimensions\)"
+    ):
+        C.check_shape(x, "x", (..., None, 4))
     with pytest.raises(ValueError, match=r"`x` must have shape \(4,\), got shape \(5, 2, 3\)"):
         C.check_shape(x, "x", (4,))  # a one-entry shape is written as a tuple
     with pytest.raises(ValueError, match=r"`x` must have shape \(\.\.\., 2\) \(points\)"):

@@ -237,3 +237,9 @@ def test_beam_path_types_and_traced_checks():
 def test_points_to_image_rejects_non_numbers():
     with pytest.raises(TypeError, match="points"):
         raster.points_to_image("abc", (4, 4))
+
+
+def test_frame_buffer_shape_message_says_2d_in_words():
+    # was "must have shape (n, n)", which reads as "square"
+    with pytest.raises(ValueError, match=r"`frame_buffer` must be a 2-D array \(any sizes\), got"):
+        raster.raster_scan(np.zeros(5))
