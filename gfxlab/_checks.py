@@ -287,6 +287,14 @@ def static_int(value, name: str, *, minimum: int | None = None, maximum: int | N
     return value
 
 
+def static_bool(value, name: str) -> bool:
+    """`value` as a Python bool: `True`/`False` (or a NumPy bool) only, since `bool("no")`
+    would be `True`. Raises `TypeError` naming `name` otherwise."""
+    if not isinstance(value, bool | np.bool_):
+        raise TypeError(f"`{name}` must be True or False, got {value!r:.60}")
+    return bool(value)
+
+
 def static_shape(shape, name: str = "shape") -> tuple[int, int]:
     """An image shape `(H, W)` (extra trailing entries such as channels are ignored).
 

@@ -58,7 +58,7 @@ import optax
 import optimistix as optx
 from jaxtyping import Array, Float, PyTree
 
-from ._checks import is_traced, static_int
+from ._checks import is_traced, static_bool, static_int
 from ._fit_params import (
     DRIVER_MESSAGE,
     OUTER_TRACE_ERRORS,
@@ -153,8 +153,7 @@ def _check_call(fn, params, args, method, progress) -> None:
         raise TypeError("`params` must be a pytree of arrays to fit, got None")
     if not isinstance(args, tuple):
         raise FitError(f"`args` must be a tuple of extra arguments, got {type(args).__name__}")
-    if not isinstance(progress, bool):
-        raise TypeError(f"`progress` must be True or False, got {progress!r:.60}")
+    static_bool(progress, "progress")
     if is_traced((params, args)):
         raise TypeError(DRIVER_MESSAGE)
     if isinstance(method, str):

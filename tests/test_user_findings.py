@@ -6,7 +6,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from gfxlab import curves, mesh, raster
+from gfxlab import brdf, curves, mesh, raster
+from gfxlab.fit import fit
 
 VERTICES = jnp.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
 FACES = jnp.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
@@ -104,3 +105,27 @@ def test_phosphor_frames_decay_is_a_scalar():
     assert raster.phosphor_frames(beam, (2, 2), decay=0.5).shape[1:] == (2, 2)
     with pytest.raises(ValueError, match="`decay` must have shape"):
         raster.phosphor_frames(beam, (2, 2), decay=jnp.array([0.5, 0.5]))
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda v: raster.raster_scan(jnp.full((2, 2), 0.5), interlaced=v),
+        lambda v: fit(lambda p: p**2, jnp.array(1.0), max_steps=1, progress=v),
+        lambda v: brdf.Phong(ks=0.5, shininess=10.0, kd=0.3, normalized=v),
+    ],
+    ids=["interlaced", "progress", "normalized"],
+)
+def test_flags_take_true_or_false_only(call):
+    """`bool("no")` is True: a string, a number or None for a flag is refused, naming it."""
+    call(np.bool_(True))  # NumPy's bool is a bool
+    for bad in ("no", 0, None):
+        with pytest.raises(TypeError, match="must be True or False"):
+            call(bad)
+
+
+def test_interlaced_scan_differs_from_progressive():
+    frame = jnp.linspace(0.0, 1.0, 12).reshape(4, 3)
+    progressive = raster.raster_scan(frame, interlaced=False)
+    interlaced = raster.raster_scan(frame, interlaced=True)
+    assert not np.array_equal(np.asarray(progressive.positions), np.asarray(interlaced.positions))

@@ -20,6 +20,7 @@ from .._checks import (
     checked_jit,
     safe_norm,
     safe_normalize,
+    static_bool,
     value_error_if,
 )
 from ..transforms import rotation_from_quaternion
@@ -283,8 +284,7 @@ def slerp(
     the argument (under a user's `jax.jit`, through `equinox.error_if`).
     """
     q0, q1, u = _quats(q0, "q0"), _quats(q1, "q1"), as_float(u, "u")
-    if not isinstance(shortest, bool):
-        raise TypeError(f"`shortest` must be True or False, got {shortest!r}")
+    static_bool(shortest, "shortest")
     return _slerp_kernel(q0, q1, u, shortest=shortest)
 
 

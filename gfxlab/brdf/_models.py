@@ -7,10 +7,9 @@ import functools
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import numpy as np
 from jaxtyping import Array, Float
 
-from .._checks import as_float, check_finite, checked_jit, is_traced, safe_normalize
+from .._checks import as_float, check_finite, checked_jit, is_traced, safe_normalize, static_bool
 from ._common import (
     _ALPHA_WHY,
     _ROUGHNESS_WHY,
@@ -89,8 +88,7 @@ def phong(
 
     **Returns:** `(...)` BRDF values in 1/sr, 0 outside the upper hemisphere.
     """
-    if not isinstance(normalized, bool | np.bool_):
-        raise TypeError(f"`normalized` must be True or False, got {normalized!r}")
+    static_bool(normalized, "normalized")
     args = _directions(wi, wo, n, ks=ks, shininess=shininess, kd=kd)
     return _phong(*args, bool(normalized))
 
@@ -359,8 +357,7 @@ class Phong(eqx.Module):
 
     def __check_init__(self):
         _check_fields(self, ks=(0.0, None, ""), shininess=(0.0, None, ""), kd=(0.0, 1.0, ""))
-        if not isinstance(self.normalized, bool | np.bool_):
-            raise TypeError(f"`normalized` must be True or False, got {self.normalized!r}")
+        static_bool(self.normalized, "normalized")
 
     def __call__(self, wi, wo, n):
         return phong(

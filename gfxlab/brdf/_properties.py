@@ -18,6 +18,7 @@ from .._checks import (
     checked_filter_jit,
     checked_jit,
     safe_normalize,
+    static_bool,
     static_int,
     static_shape,
     value_error_if,
@@ -266,8 +267,7 @@ def shade_sphere(
     radius = float(radius)
     if not (0 < radius < np.inf):
         raise ValueError(f"`radius` must be positive and finite, got {radius}")
-    if not isinstance(point_light, bool | np.bool_):
-        raise TypeError(f"`point_light` must be True or False, got {point_light!r:.60}")
+    static_bool(point_light, "point_light")
     dtype = jnp.result_type(light.dtype, float)
     intensity = as_float(intensity, "intensity").astype(dtype)
     background = as_float(background, "background").astype(dtype)

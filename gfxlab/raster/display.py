@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float
 
-from .._checks import check_range, check_shape, checked_jit, static_int
+from .._checks import check_range, check_shape, checked_jit, static_bool, static_int
 from .._pixels import checked_shape, pixel_to_index, row_to_y
 from ._args import array_arg, finite_arg, float_dtype, range_check
 
@@ -113,7 +113,9 @@ def raster_scan(
     height, width = frame_buffer.shape
     h_retrace = static_int(h_retrace, "h_retrace", minimum=1, maximum=MAX_BEAM_STEPS)
     v_retrace = static_int(v_retrace, "v_retrace", minimum=1, maximum=MAX_BEAM_STEPS)
-    positions, on, flat = _raster_layout(height, width, bool(interlaced), h_retrace, v_retrace)
+    positions, on, flat = _raster_layout(
+        height, width, static_bool(interlaced, "interlaced"), h_retrace, v_retrace
+    )
     return _raster_beam(frame_buffer, positions, on, flat)
 
 
