@@ -25,7 +25,7 @@ import time
 
 # HEADLESS_ENV is "1" in the kernels the runner starts; the public face of this module is
 # `gfxlab.labs` (run_lab, run_all, ...), which imports it lazily.
-from .labs import CACHE_ENV, HEADLESS_ENV, LabError, LabRun, lab_xla_flags
+from .labs import CACHE_ENV, HEADLESS_ENV, LabError, LabRun, _check_timeout, lab_xla_flags
 
 # nbformat validates notebooks with jsonschema, which imports `rfc3987_syntax` for its
 # "iri" format when that package is installed (JupyterLab pulls it in); it builds an
@@ -142,8 +142,7 @@ def run_lab(path, out_dir, *, timeout=600, cache=True) -> pathlib.Path:
     from nbclient.exceptions import CellExecutionError, CellTimeoutError, DeadKernelError
 
     path, out_dir = pathlib.Path(path), pathlib.Path(out_dir)
-    if not timeout or timeout <= 0:
-        raise ValueError(f"`timeout` must be a positive number of seconds, got {timeout!r}")
+    timeout = _check_timeout(timeout)
     nb = nbformat.read(path, as_version=4)
     current: dict = {"index": None}
 
@@ -197,6 +196,8 @@ def run_lab(path, out_dir, *, timeout=600, cache=True) -> pathlib.Path:
 
 def write_index(out_dir: pathlib.Path, runs: list[LabRun]) -> pathlib.Path:
     """Write `out_dir/index.html`: one line per lab, linking its executed HTML copy."""
+    out_dir = pathlib.Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
     rows = []
     for run in runs:
         link = run.html_path.name if run.html_path is not None else None

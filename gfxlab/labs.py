@@ -297,6 +297,22 @@ def lab_title(path: pathlib.Path | str) -> str:
     return _runner.lab_title(pathlib.Path(path))
 
 
+def _check_flag(value, name: str) -> bool:
+    """`value` if it is `True` or `False` (`bool("no")` is True: refuse anything else)."""
+    if not isinstance(value, bool):
+        raise TypeError(f"`{name}` must be True or False, got {value!r:.60}")
+    return value
+
+
+def _check_timeout(timeout) -> float:
+    """`timeout` as seconds per cell: a positive, finite number (not a bool)."""
+    if isinstance(timeout, bool) or not isinstance(timeout, int | float):
+        raise TypeError(f"`timeout` must be a number of seconds, got {timeout!r:.60}")
+    if not 0 < timeout < float("inf"):
+        raise ValueError(f"`timeout` must be a positive, finite number of seconds, got {timeout!r}")
+    return float(timeout)
+
+
 def run_lab(
     path: pathlib.Path | str,
     out_dir: pathlib.Path | str,
@@ -319,11 +335,14 @@ def run_lab(
 
     **Raises:** `LabError` (naming the cell, with the partial HTML already written) when
     a cell raises, runs longer than `timeout`, or the kernel dies; `ValueError` for a
-    `timeout` that is not positive.
+    `timeout` that is not positive and finite; `TypeError` for a `timeout` that is not a
+    number or a `cache` that is not `True`/`False`.
     """
     from . import _runner
 
-    return _runner.run_lab(path, out_dir, timeout=timeout, cache=cache)
+    return _runner.run_lab(
+        path, out_dir, timeout=_check_timeout(timeout), cache=_check_flag(cache, "cache")
+    )
 
 
 def run_all(
@@ -348,6 +367,7 @@ def run_all(
     """
     from . import _runner
 
+    timeout, cache = _check_timeout(timeout), _check_flag(cache, "cache")
     return _runner.run_all(out_dir, labs=labs, timeout=timeout, cache=cache, log=log)
 
 
@@ -356,7 +376,7 @@ def write_index(out_dir: pathlib.Path | str, runs: list[LabRun]) -> pathlib.Path
 
     **Arguments:**
 
-    - `out_dir`: the folder holding the labs' HTML copies.
+    - `out_dir`: the folder holding the labs' HTML copies (created if missing).
     - `runs`: one `LabRun` per lab (its status and time are shown; a failure in red).
 
     **Returns:** the path of `index.html`.
@@ -393,4 +413,4 @@ def kernel_env(*, cache: bool = True) -> dict[str, str]:
     """
     from . import _runner
 
-    return _runner.kernel_env(cache=cache)
+    return _runner.kernel_env(cache=_check_flag(cache, "cache"))

@@ -376,10 +376,22 @@ def apply(matrix: Matrix, points: Float[Array, "*batch N d"]) -> Float[Array, "*
     **Returns:** the transformed points, same shape as `points`.
     """
     matrix, points = common_finite(matrix, points, names=("matrix", "points"))
-    if matrix.ndim < 2 or matrix.shape[-1] != matrix.shape[-2]:
-        raise ValueError(f"`matrix` must be square (..., n, n), got shape {matrix.shape}")
+    if matrix.ndim < 2 or matrix.shape[-1] != matrix.shape[-2] or matrix.shape[-1] < 2:
+        raise ValueError(
+            "`matrix` must be a square homogeneous matrix, 3x3 for 2D points or 4x4 for 3D "
+            f"(or a batch of them, shape (..., d+1, d+1)), got shape {matrix.shape}"
+        )
     d = matrix.shape[-1] - 1
     check_last_dim(points, "points", (d,), f"{d}D points for a {d + 1}x{d + 1} matrix")
+    matrix_batch = matrix.shape[:-2]
+    points_batch = points.shape[:-2]
+    try:
+        jnp.broadcast_shapes(matrix_batch, points_batch)
+    except ValueError:
+        raise ValueError(
+            f"the batch shapes of `matrix` {matrix_batch} and `points` {points_batch} (all "
+            f"but the last two axes; shapes {matrix.shape} and {points.shape}) do not broadcast"
+        ) from None
     return _apply(matrix, points)
 
 

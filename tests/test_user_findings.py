@@ -6,10 +6,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from gfxlab import brdf, curves, mesh, raster
+from gfxlab import brdf, curves, labs, mesh, raster
 from gfxlab.fit import fit
 
 VERTICES = jnp.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+POINTS = jnp.stack([jnp.linspace(0.0, 2.0, 9), jnp.sin(jnp.linspace(0.0, 3.0, 9))], axis=-1)
 FACES = jnp.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
 
 
@@ -129,3 +130,45 @@ def test_interlaced_scan_differs_from_progressive():
     progressive = raster.raster_scan(frame, interlaced=False)
     interlaced = raster.raster_scan(frame, interlaced=True)
     assert not np.array_equal(np.asarray(progressive.positions), np.asarray(interlaced.positions))
+
+
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda v: curves.fit_bezier(POINTS, 2, full_output=v),
+        lambda v: curves.fit_bezier(POINTS, 2, correct_parameters=v),
+        lambda v: curves.fit_ellipse(POINTS, full_output=v),
+        lambda v: labs.kernel_env(cache=v),
+    ],
+    ids=["bezier-full_output", "bezier-correct_parameters", "ellipse-full_output", "cache"],
+)
+def test_more_flags_take_true_or_false_only(call):
+    for bad in ("no", 1, None):
+        with pytest.raises(TypeError, match="must be True or False"):
+            call(bad)
+
+
+@pytest.mark.parametrize(
+    ("timeout", "error"),
+    [(True, TypeError), ("10", TypeError), (float("nan"), ValueError), (float("inf"), ValueError)],
+)
+def test_run_lab_timeout_is_a_positive_finite_number(timeout, error, tmp_path):
+    with pytest.raises(error, match="`timeout`"):
+        labs.run_lab(labs.find_lab("00"), tmp_path, timeout=timeout)
+    assert not any(tmp_path.iterdir()), "refused before any kernel started"
+
+
+def test_write_index_creates_its_folder(tmp_path):
+    page = labs.write_index(tmp_path / "new" / "site", [])
+    assert page.is_file() and page.parent == tmp_path / "new" / "site"
+
+
+def test_apply_names_mismatched_batches_and_non_square_matrices():
+    from gfxlab import transforms
+
+    with pytest.raises(ValueError, match=r"batch shapes of `matrix` \(4,\) and `points` \(3,\)"):
+        transforms.apply(jnp.ones((4, 3, 3)), jnp.ones((3, 5, 2)))
+    with pytest.raises(ValueError, match="`matrix` must be a square homogeneous matrix"):
+        transforms.apply(jnp.ones((3, 4)), jnp.ones((5, 2)))
+    batched = transforms.apply(jnp.broadcast_to(jnp.eye(3), (4, 3, 3)), jnp.ones((1, 5, 2)))
+    assert batched.shape == (4, 5, 2)

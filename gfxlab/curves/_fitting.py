@@ -10,7 +10,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._checks import as_float, check_last_dim, check_shape, is_traced, static_int
+from .._checks import as_float, check_last_dim, check_shape, is_traced, static_bool, static_int
 from ._bezier import Bezier, _bezier_kernel
 from ._bspline import BSpline, _bspline_kernel, _lookup_path
 from ._common import MAX_DEGREE, _check_unit_interval, _not_finite, _require
@@ -173,6 +173,8 @@ def fit_bezier(
 
     **Returns:** a `Bezier`, or `(Bezier, parameters, FitResult)` with `full_output`.
     """
+    correct_parameters = static_bool(correct_parameters, "correct_parameters")
+    full_output = static_bool(full_output, "full_output")
     _check_driver("fit_bezier", method, max_steps, points, parameters)
     points = _fit_points(points)
     degree = static_int(degree, "degree", minimum=1, maximum=MAX_DEGREE)
@@ -234,6 +236,8 @@ def fit_bspline(
 
     **Returns:** a `BSpline`, or `(BSpline, parameters, FitResult)` with `full_output`.
     """
+    correct_parameters = static_bool(correct_parameters, "correct_parameters")
+    full_output = static_bool(full_output, "full_output")
     _check_driver("fit_bspline", method, max_steps, points, knots, parameters)
     points = _fit_points(points)
     n, p = _check_degree(num_control_points, degree)
@@ -293,6 +297,7 @@ def fit_ellipse(
     **Returns:** the fitted `Ellipse`, normalised (`rx >= ry`, angle in `[0, pi)`), or
     `(Ellipse, t, FitResult)` with `full_output`.
     """
+    full_output = static_bool(full_output, "full_output")
     from ..fit import fit
 
     _check_driver("fit_ellipse", method, max_steps, points, initial)
