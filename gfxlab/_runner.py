@@ -167,7 +167,7 @@ def run_lab(path, out_dir, *, timeout=600, cache=True) -> pathlib.Path:
     except CellTimeoutError:
         failure = (
             f"the cell did not finish within {timeout:g} s (the per-cell timeout; "
-            "raise it with --timeout SECONDS)",
+            "raise it with `timeout=SECONDS`, or --timeout SECONDS on the command line)",
             True,
         )
     except CellExecutionError as err:

@@ -223,7 +223,8 @@ class LabError(RuntimeError):
         message = f"{self.lab.name}: {where}: {reason}"
         if shown:
             message += f"\n  the cell:\n{shown}"
-        message += f"\n  partial HTML (outputs up to this cell): {html_path}"
+        if html_path is not None:
+            message += f"\n  partial HTML (outputs up to this cell): {html_path}"
         super().__init__(message)
 
     @property
@@ -258,11 +259,15 @@ def list_labs(directory: pathlib.Path | str | None = None) -> list[pathlib.Path]
     - `directory`: the folder to look in; `None` means `$GFXLAB_LABS`, else the labs
       shipped with gfxlab.
 
-    **Returns:** the notebook paths, sorted (an empty list when there are none).
+    **Returns:** the notebook paths, sorted (an empty list when the folder holds none).
+
+    **Raises:** `NotADirectoryError` when `directory` is not an existing folder.
     """
     from . import _runner
 
-    return _runner.list_labs(None if directory is None else pathlib.Path(directory))
+    if directory is not None:
+        directory = _check_folder(directory, "directory")
+    return _runner.list_labs(directory)
 
 
 def find_lab(name: str, directory: pathlib.Path | str | None = None) -> pathlib.Path:
@@ -275,11 +280,19 @@ def find_lab(name: str, directory: pathlib.Path | str | None = None) -> pathlib.
 
     **Returns:** the notebook's path.
 
-    **Raises:** `LookupError` (listing the labs) when `name` matches no lab or several.
+    **Raises:** `LookupError` (listing the labs) when `name` matches no lab or several;
+    `TypeError` when `name` is not a string, path or whole number.
     """
     from . import _runner
 
-    return _runner.find_lab(str(name), None if directory is None else pathlib.Path(directory))
+    if isinstance(name, bool) or not isinstance(name, str | int | os.PathLike):
+        raise TypeError(
+            f"`name` must be a lab number, a part of a lab's name or a notebook path, "
+            f"got {type(name).__name__}"
+        )
+    if directory is not None:
+        directory = _check_folder(directory, "directory")
+    return _runner.find_lab(os.fspath(name) if not isinstance(name, int) else str(name), directory)
 
 
 def lab_title(path: pathlib.Path | str) -> str:
@@ -335,14 +348,37 @@ def run_lab(
 
     **Raises:** `LabError` (naming the cell, with the partial HTML already written) when
     a cell raises, runs longer than `timeout`, or the kernel dies; `ValueError` for a
-    `timeout` that is not positive and finite; `TypeError` for a `timeout` that is not a
-    number or a `cache` that is not `True`/`False`.
+    `timeout` that is not positive and finite or a `path` that is not a `.ipynb` file;
+    `FileNotFoundError` when there is no notebook at `path`; `TypeError` for a `timeout`
+    that is not a number or a `cache` that is not `True`/`False`.
     """
     from . import _runner
 
     return _runner.run_lab(
-        path, out_dir, timeout=_check_timeout(timeout), cache=_check_flag(cache, "cache")
+        _check_notebook(path),
+        out_dir,
+        timeout=_check_timeout(timeout),
+        cache=_check_flag(cache, "cache"),
     )
+
+
+def _check_folder(directory, name: str) -> pathlib.Path:
+    folder = pathlib.Path(directory)
+    if not folder.is_dir():
+        raise NotADirectoryError(f"`{name}` must be an existing folder, got {str(folder)!r}")
+    return folder
+
+
+def _check_notebook(path) -> pathlib.Path:
+    """`path` as an existing `.ipynb` file, or a clear error (not nbformat's JSON error)."""
+    notebook = pathlib.Path(path)
+    if notebook.suffix != ".ipynb":
+        raise ValueError(
+            f"`path` must be a Jupyter notebook (a .ipynb file), got {str(notebook)!r}"
+        )
+    if not notebook.is_file():
+        raise FileNotFoundError(f"`path`: no notebook at {str(notebook)!r}")
+    return notebook
 
 
 def run_all(
@@ -364,10 +400,15 @@ def run_all(
 
     **Returns:** the path of `index.html` and one `LabRun` per lab, in order (a failed
     lab has its `LabError` in `.error`).
+
+    **Raises:** before any lab runs, the errors of `run_lab` for a bad `timeout`,
+    `cache` or notebook path in `labs`.
     """
     from . import _runner
 
     timeout, cache = _check_timeout(timeout), _check_flag(cache, "cache")
+    if labs is not None:  # every notebook checked before the first kernel starts
+        labs = [_check_notebook(lab) for lab in labs]
     return _runner.run_all(out_dir, labs=labs, timeout=timeout, cache=cache, log=log)
 
 

@@ -172,3 +172,27 @@ def test_apply_names_mismatched_batches_and_non_square_matrices():
         transforms.apply(jnp.ones((3, 4)), jnp.ones((5, 2)))
     batched = transforms.apply(jnp.broadcast_to(jnp.eye(3), (4, 3, 3)), jnp.ones((1, 5, 2)))
     assert batched.shape == (4, 5, 2)
+
+
+def test_lab_lookup_and_paths_are_clear_errors(tmp_path):
+    with pytest.raises(TypeError, match="`name` must be a lab number"):
+        labs.find_lab(None)
+    assert labs.find_lab(3).name.startswith("03_") and labs.find_lab("03") == labs.find_lab(3)
+    with pytest.raises(NotADirectoryError, match="`directory` must be an existing folder"):
+        labs.list_labs(tmp_path / "missing")
+    assert labs.list_labs(tmp_path) == []  # an existing folder without labs
+    script = tmp_path / "lab.py"
+    script.write_text("print(1)\n")
+    with pytest.raises(ValueError, match=r"`path` must be a Jupyter notebook \(a \.ipynb file\)"):
+        labs.run_lab(script, tmp_path)
+    with pytest.raises(FileNotFoundError, match="`path`: no notebook at"):
+        labs.run_lab(tmp_path / "missing.ipynb", tmp_path)
+    with pytest.raises(ValueError, match="must be a Jupyter notebook"):  # before any kernel
+        labs.run_all(tmp_path / "out", labs=[labs.find_lab(0), script])
+    assert not (tmp_path / "out" / "00_welcome.html").exists()
+
+
+def test_lab_error_without_html_says_nothing_of_it():
+    error = labs.LabError("00_welcome.ipynb", None, "", "the kernel died", None)
+    assert "partial HTML" not in str(error) and "None" not in str(error)
+    assert "partial HTML" in str(labs.LabError("x.ipynb", 0, "1/0", "ZeroDivisionError", "x.html"))
