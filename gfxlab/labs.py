@@ -104,21 +104,27 @@ def lab_xla_flags(flags: str | None = None) -> str:
     if not isinstance(flags, str):
         raise TypeError(f"`flags` must be a string of XLA flags or None, got {flags!r:.60}")
     name = LAB_XLA_FLAG.split("=")[0]
-    if name in flags or not _xla_knows_lab_flag():
+    if name in flags or not _xla_knows_lab_flag(_flag_answer_path()):
         return flags
     return f"{flags} {LAB_XLA_FLAG}".strip()
 
 
-@functools.cache
-def _xla_knows_lab_flag() -> bool:
-    """Whether this jaxlib's XLA accepts `LAB_XLA_FLAG` (a child process tries it once per
-    jaxlib version; the answer is cached on disk and in memory)."""
+def _flag_answer_path() -> pathlib.Path | None:
+    """Where the probe's answer for this jaxlib is kept (None: no jaxlib installed)."""
     try:
         version = importlib.metadata.version("jaxlib")
     except importlib.metadata.PackageNotFoundError:
-        return False
+        return None
     base = os.environ.get("XDG_CACHE_HOME") or pathlib.Path.home() / ".cache"
-    answer = pathlib.Path(base) / "gfxlab" / f"xla-flag-{LAB_XLA_FLAG[2:]}-jaxlib-{version}"
+    return pathlib.Path(base) / "gfxlab" / f"xla-flag-{LAB_XLA_FLAG[2:]}-jaxlib-{version}"
+
+
+@functools.cache
+def _xla_knows_lab_flag(answer: pathlib.Path | None) -> bool:
+    """Whether this jaxlib's XLA accepts `LAB_XLA_FLAG` (a child process tries it once per
+    jaxlib version; the answer is kept in the file `answer` and, per file, in memory)."""
+    if answer is None:
+        return False
     try:
         return answer.read_text().strip() == "accepted"
     except OSError:

@@ -250,11 +250,11 @@ def test_batch_kills_a_submission_past_its_wall_clock_limit():
 
     from grading_attacks.pool import hang
 
-    from gfxlab.grading.commands import _run_pool
+    from gfxlab.grading.commands import run_pool
 
     started = time.monotonic()
     tasks = [(None, None, label, None) for label in ("a", "hangs", "b", "c")]
-    results = _run_pool(tasks, 2, 3.0, grade=hang)
+    results = run_pool(tasks, 2, 3.0, grade=hang)
     assert results[0] == "a" and results[2:] == ["b", "c"]
     assert "longer than 3 s and was stopped" in results[1].error
     assert time.monotonic() - started < 30
@@ -286,7 +286,7 @@ def test_native_code_is_closed_and_jax_still_imports():
     and the shared libraries bundled with a forbidden library's wheel are gone."""
     import importlib.util
 
-    from gfxlab.grading._host import expand_forbidden, forbidden_files
+    from gfxlab.grading.sandbox import expand_forbidden, forbidden_files
 
     libs = {}
     for top in ("shapely", "bezier"):
@@ -859,7 +859,7 @@ def test_batch_grades_in_a_random_order_and_reports_in_the_given_one(built, tmp_
         assert [t[4] for t in tasks] == [n < len(tasks) - jobs for n in range(len(tasks))]
         return [GradeResult(t[2], [], [], [], 0.0) for t in tasks]
 
-    monkeypatch.setattr(commands, "_run_pool", fake_pool)
+    monkeypatch.setattr(commands, "run_pool", fake_pool)
     for _ in range(2):
         got = commands.grade_many([folder / n for n in names], result.autograder, tmp_path / "o")
         assert [r.submission for r in got] == names
@@ -891,9 +891,9 @@ def _run_classic_bpf(program: bytes, arch: int, number: int) -> int:
 
 @pytest.mark.parametrize("machine", ["x86_64", "aarch64"])
 def test_seccomp_refuses_memfd_ptrace_and_cross_process_writes_only(machine):
-    from gfxlab.grading._policy import _SECCOMP_ARCH, seccomp_program
+    from gfxlab.grading.sandbox import SECCOMP_RULES, seccomp_program
 
-    audit, refused = _SECCOMP_ARCH[machine]
+    audit, refused = SECCOMP_RULES[machine]
     program = seccomp_program(machine)
     eperm, allow = 0x00050001, 0x7FFF0000
     for name in ("memfd_create", "memfd_secret", "ptrace", "process_vm_writev"):

@@ -183,16 +183,23 @@ def _run_cli(folder, autograder, out, *, uid=None, timeout=240, work=None, tmpdi
     )
 
 
+def _closed_to_others(path: pathlib.Path) -> pathlib.Path | None:
+    """The first of `path`'s ancestors (or `path`) that other users cannot enter."""
+    for part in [*reversed(path.parents), path]:
+        if not os.stat(part).st_mode & 0o001:
+            return part
+    return None
+
+
 def _as_user(argv, uid, work):
     """Run `argv` as `uid`, exposing the interpreter if it sits in a directory closed to it.
 
     Uses the grader's own first-stage launcher, inside the test's mount namespace.
     """
-    from gfxlab.grading import sandbox
-
+    runtime = {pathlib.Path(os.path.realpath(p)) for p in (sys.base_prefix, sys.prefix)}
     blocked = {}
-    for path in [*sandbox._runtime_paths(), ROOT, work]:
-        blocker = sandbox._closed_to_others(path)
+    for path in [*sorted(runtime), ROOT, work]:
+        blocker = _closed_to_others(path)
         if blocker is not None:
             blocked.setdefault(str(blocker), []).append(str(path))
     config = {

@@ -106,7 +106,7 @@ def _cells(reference, q12):
 
 
 def test_forbidding_gfxlab_keeps_only_the_public_test_helpers():
-    from gfxlab.grading._host import expand_forbidden
+    from gfxlab.grading.sandbox import expand_forbidden
 
     names = expand_forbidden(["gfxlab", "bezier"])
     for module in ("gfxlab.curves", "gfxlab.animation", "gfxlab.exam", "gfxlab.jpeg"):

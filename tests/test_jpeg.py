@@ -12,13 +12,12 @@ import jpeglib
 import numpy as np
 import pytest
 import scipy.fft
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 from jax.test_util import check_grads
 from PIL import Image
 
 from gfxlab import jpeg
-from gfxlab.jpeg import _encoder, codec
 
 # The seed's Q5f block after the level shift (as printed in the exam answer).
 SEED_SHIFTED = np.array(
@@ -263,28 +262,39 @@ def test_coefficients_equal_libjpeg(quality, shape):
     np.testing.assert_array_equal(jpeg.coefficients(img[..., 1], quality=quality)[0], ref[0])
 
 
+# `encode` runs NumPy below 65,536 pixels and compiled XLA programs from there on (as its
+# docstring says); `compiled=` takes either path at any size, with the same bytes.
+COMPILED_FROM_PIXELS = 65_536
+
+
 @pytest.mark.parametrize("compiled", [False, True], ids=["numpy", "xla"])
 @pytest.mark.parametrize("quality", [1, 10, 50, 75, 90, 95, 100])
-def test_encode_is_byte_identical_to_pillow(quality, compiled, monkeypatch):
-    # Small images normally take the NumPy path; force each path in turn.
-    monkeypatch.setattr(codec, "_COMPILE_FROM_PIXELS", 0 if compiled else 1 << 62)
+def test_encode_is_byte_identical_to_pillow(quality, compiled):
+    # Small images: the NumPy path by default; each path in turn. Compiled, (33, 70) is
+    # coded in bands: 4:2:0 in three of one MCU row (the last one pixel row), 4:4:4 in
+    # bands of 2, 2 and 1 MCU rows; (1, 1) and (9, 17) in one.
     for shape in [(1, 1), (9, 17), (33, 70)]:
         img = photo(*shape, seed=quality + shape[0])
         for subsampling in SUBSAMPLINGS:
-            ours = jpeg.encode(img, quality=quality, subsampling=subsampling)
+            ours = jpeg.encode(img, quality=quality, subsampling=subsampling, compiled=compiled)
             assert ours == pillow_bytes(img, quality, subsampling), (shape, subsampling)
-        assert jpeg.encode(img[..., 2], quality=quality) == pillow_bytes(img[..., 2], quality)
+        grey = jpeg.encode(img[..., 2], quality=quality, compiled=compiled)
+        assert grey == pillow_bytes(img[..., 2], quality)
 
 
 def test_encode_large_images_byte_identical_to_pillow():
     # Above the size where `encode` switches to the compiled programs; odd sizes
-    # exercise the edge replication and libjpeg's dummy blocks.
-    assert 261 * 259 >= codec._COMPILE_FROM_PIXELS
+    # exercise the edge replication and libjpeg's dummy blocks. The compiled encoder
+    # codes horizontal bands separately and carries the DC prediction across them: here
+    # 4 bands (17 MCU rows of 4:2:0 in 5, 5, 5, 2; 33 of 4:4:4 in 9, 9, 9, 6), and the
+    # file is libjpeg's, coded in one pass.
+    assert 261 * 259 >= COMPILED_FROM_PIXELS
     img = photo(261, 259, seed=3)
     for quality, subsampling in [(1, "4:2:0"), (75, "4:2:0"), (95, "4:2:2"), (100, "4:4:4")]:
         ours = jpeg.encode(img, quality=quality, subsampling=subsampling)
         assert ours == pillow_bytes(img, quality, subsampling), (quality, subsampling)
     assert b"\xff\x00" in ours  # byte stuffing exercised
+    assert jpeg.encode(img, quality=100, subsampling="4:4:4", compiled=False) == ours
     assert jpeg.encode(img[..., 0], quality=60) == pillow_bytes(img[..., 0], 60)
 
 
@@ -307,66 +317,83 @@ def test_batched_encode_is_byte_identical_to_pillow_per_image():
         jpeg.encode(np.zeros((0, 8, 8, 3), np.uint8))
 
 
-def test_banded_encoding_equals_one_pass_for_any_band_count():
-    # The compiled encoder codes horizontal bands separately and carries the DC
-    # prediction across them; the result must not depend on where the bands fall.
-    img, factors = photo(150, 90, seed=7), ((2, 2), (1, 1), (1, 1))  # 10 MCU rows
-    lay = _encoder.layout(150, 90, factors)
-    luma, chroma = codec.integer_tables(40)
-    divisors = _encoder.quantizers([luma, chroma, chroma])
-    padded = _encoder.pad_input(img, lay)
-    expected = _encoder.pack_scan(_encoder.scan_events(padded, divisors, lay, np))
-    for bands in (1, 3, 10):
-        plan = _encoder.band_plan(150, 90, factors, bands)
-        assert len(plan) == bands and sum(band.mcus[0] for _, band in plan) == 10
-        results = [_encoder.compiled_band_events(band)(padded, divisors, row) for row, band in plan]
-        assert _encoder.pack_bands(results, plan) == expected, bands
+def _basis(u: int, v: int, amplitude: float) -> np.ndarray:
+    """An 8 x 8 block of one DCT basis pattern around mid-grey: one nonzero AC value."""
+    k = (2 * np.arange(8) + 1) * np.pi / 16
+    return 128 + amplitude * np.outer(np.cos(v * k), np.cos(u * k))
+
+
+_CHECKER = np.where(np.add.outer(np.arange(8), np.arange(8)) % 2 == 0, 0.0, 255.0)
+# Blocks the coder must get right: DC only at the ends of its range (0 and 255 at
+# quality 100: DC -1024 and 1016, differences of 2040), a lone coefficient after long
+# zero runs (ZRLs), one in the last zig-zag slot (no EOB), the largest AC values.
+_EDGE_BLOCKS = [
+    np.zeros((8, 8)),
+    np.full((8, 8), 255.0),
+    _basis(7, 7, 127),
+    _basis(3, 6, -90),
+    _CHECKER,
+    np.full((8, 8), 255.0),
+    _basis(0, 7, 120),
+    np.zeros((8, 8)),
+]
+# The images are 33 x 70, the size `test_encode_is_byte_identical_to_pillow` compiles
+# (5 x 9 blocks, the last row and column partial: edge replication too).
+_ROWS, _COLS = 5, 9
+
+
+def _image_of_blocks(blocks) -> np.ndarray:
+    """`_ROWS * _COLS` blocks per channel, `(channels, rows * cols, 8, 8)` -> uint8
+    `(33, 70, channels)`."""
+    channels = len(blocks)
+    planes = np.asarray(blocks).reshape(channels, _ROWS, _COLS, 8, 8)
+    image = planes.transpose(1, 3, 2, 4, 0).reshape(8 * _ROWS, 8 * _COLS, channels)
+    return np.clip(np.round(image[:33, :70]), 0, 255).astype(np.uint8)
 
 
 @st.composite
-def _zigzag_blocks(draw):
-    """Zig-zagged blocks with long zero runs, trailing nonzeros and empty blocks."""
-    n = draw(st.integers(1, 6))
-    blocks = np.zeros((n, 64), np.int64)
-    for i in range(n):
-        positions = draw(st.lists(st.integers(0, 63), max_size=12, unique=True))
-        for p in positions:
-            blocks[i, p] = draw(st.integers(-1023, 1023).filter(bool))
-        blocks[i, 0] = draw(st.integers(-1024, 1016))
-    chroma = draw(st.lists(st.booleans(), min_size=n, max_size=n))
-    return blocks, np.array(chroma)
+def _block_images(draw):
+    """An image whose blocks (per channel) are drawn from flat blocks, single DCT basis
+    patterns of any frequency and amplitude, checkerboards and noise."""
+    channels = draw(st.sampled_from([1, 3]))
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    blocks = []
+    for _ in range(_ROWS * _COLS * channels):
+        kind = draw(st.sampled_from(["flat", "basis", "checker", "noise"]))
+        if kind == "flat":
+            block = np.full((8, 8), float(draw(st.sampled_from([0, 255]) | st.integers(0, 255))))
+        elif kind == "basis":
+            u, v = draw(st.integers(0, 7)), draw(st.integers(0, 7))
+            block = _basis(u, v, draw(st.floats(-127, 127)))
+        elif kind == "checker":
+            block = _CHECKER
+        else:
+            block = rng.integers(0, 256, (8, 8)).astype(float)
+        blocks.append(block)
+    image = _image_of_blocks(np.reshape(blocks, (channels, -1, 8, 8)))
+    quality = draw(st.sampled_from([1, 100]) | st.integers(1, 100))
+    subsampling = draw(st.sampled_from(list(SUBSAMPLINGS)))
+    return (image[..., 0] if channels == 1 else image), quality, subsampling
 
 
-# One compiled program per block count (the table ids are an argument, not a constant).
-_JAX_BLOCK_EVENTS = jax.jit(lambda b, d, t: _encoder.block_events(b, d, t, jnp))
+_EDGES = [_EDGE_BLOCKS[k % 8] for k in range(_ROWS * _COLS)]
+_EDGE_GREY = _image_of_blocks([_EDGES])[..., 0]
+_EDGE_RGB = _image_of_blocks([_EDGES, _EDGES[::-1], _EDGES[3:] + _EDGES[:3]])
 
 
-@given(_zigzag_blocks())
-def test_dense_block_events_equal_textbook_huffman_coding(case):
-    blocks, chroma = case
-    # Textbook: symbol by symbol, each table's DC predicted from its own last block.
-    bits, last_dc = "", {False: 0, True: 0}
-    for block, c in zip(blocks, chroma.tolist(), strict=True):
-        symbols = jpeg.huffman_code_block(block, previous_dc=last_dc[c], chroma=c)
-        bits += "".join(h + e for _, h, e in symbols)
-        last_dc[c] = int(block[0])
-    bits += "1" * (-len(bits) % 8)
-    expected = bytes(int(bits[i : i + 8], 2) for i in range(0, len(bits), 8))
-    expected = expected.replace(b"\xff", b"\xff\x00")
-    difference = blocks[:, 0].copy()
-    for c in (False, True):
-        own = np.flatnonzero(chroma == c)
-        difference[own] = np.diff(blocks[own, 0], prepend=0)
-    tables = chroma.astype(np.int32)
-    ours_np = _encoder.block_events(blocks, difference, tables, np)
-    ours_jax = _JAX_BLOCK_EVENTS(blocks.astype(np.int32), difference.astype(np.int32), tables)
-    np.testing.assert_array_equal(np.asarray(ours_jax), ours_np)
-    assert _encoder.pack_scan(ours_np) == expected
-    # The compiled encoder codes blocks in the DCT's transposed layout, then reorders.
-    transposed = np.zeros_like(blocks)
-    transposed[:, _encoder._ZIGZAG_TRANSPOSED] = blocks
-    in_fdct_order = _encoder.block_events(transposed, difference, tables, np, order="fdct")
-    np.testing.assert_array_equal(in_fdct_order[:, _encoder._ZIGZAG_TRANSPOSED], ours_np)
+@given(_block_images())
+@example((_EDGE_GREY, 100, "4:4:4"))
+@example((_EDGE_GREY, 50, "4:4:4"))
+@example((_EDGE_RGB, 100, "4:4:4"))
+def test_huffman_coding_of_any_blocks_is_libjpegs(case):
+    # Each block's DC difference (from the last block of its own component), ZRLs, run /
+    # size codes, EOB, and the bit packing with 0xFF stuffing, in both code paths (the
+    # compiled one codes the DCT's transposed layout, then reorders): libjpeg's bytes.
+    image, quality, subsampling = case
+    expected = pillow_bytes(image, quality, subsampling)
+    for compiled in (False, True):
+        ours = jpeg.encode(image, quality=quality, subsampling=subsampling, compiled=compiled)
+        assert ours == expected, compiled
 
 
 def test_pillow_decodes_our_files_and_we_decode_them_exactly():

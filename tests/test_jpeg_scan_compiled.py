@@ -1,7 +1,8 @@
-"""The compiled entropy decoder (`_entropy_xla`, used from `COMPILE_FROM_BLOCKS` blocks
-on) against the Python loop it replaces, on small files forced through it: the same
-coefficients for every kind of scan, the same outcome (image or `JPEGError`, same
-message) on mutated files, and pixels equal to Pillow's."""
+"""`jpeg.decode`'s compiled programs (the entropy-decoding loop and the reconstruction,
+taken by default from 1024 blocks on) against the Python and NumPy path they replace, on
+small files decoded both ways (`compiled=True` / `False`): the same pixels for every
+kind of scan, equal to Pillow's, and the same outcome (image or `JPEGError`, same
+message) on mutated files."""
 
 from __future__ import annotations
 
@@ -14,15 +15,13 @@ from PIL import Image
 from test_jpeg_fuzz import SEEDS, _mutate
 
 from gfxlab import jpeg
-from gfxlab.jpeg import _entropy
 
 
-def _outcome(data: bytes, compiled: bool, monkeypatch):
-    monkeypatch.setattr(_entropy, "COMPILE_FROM_BLOCKS", 0 if compiled else 1 << 62)
+def _outcome(data: bytes, compiled: bool):
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)
-            return jpeg.decode(data)
+            return jpeg.decode(data, compiled=compiled)
     except jpeg.JPEGError as err:
         return str(err)
 
@@ -53,20 +52,29 @@ def _files() -> list[bytes]:
 
 
 @pytest.mark.parametrize("data", _files(), ids=lambda d: f"{len(d)}B")
-def test_compiled_scan_decoder_equals_python_and_pillow(data, monkeypatch):
-    ours = _outcome(data, True, monkeypatch)
+def test_compiled_scan_decoder_equals_python_and_pillow(data):
+    ours = _outcome(data, True)
     assert not isinstance(ours, str), ours
     np.testing.assert_array_equal(ours, np.asarray(Image.open(io.BytesIO(data))))
-    assert _same(ours, _outcome(data, False, monkeypatch))
+    assert _same(ours, _outcome(data, False))
 
 
-def test_compiled_scan_decoder_on_mutated_files(monkeypatch):
+def test_compiled_scan_decoder_on_mutated_files():
     # Corrupt data must end the compiled loop the way it ends the Python one.
     rng = np.random.default_rng(17)
     kinds = {"image": 0, "error": 0}
     for i in range(150):
         data = _mutate(SEEDS[i % len(SEEDS)], rng)
-        compiled = _outcome(data, True, monkeypatch)
-        assert _same(compiled, _outcome(data, False, monkeypatch)), i
+        compiled = _outcome(data, True)
+        assert _same(compiled, _outcome(data, False)), i
         kinds["error" if isinstance(compiled, str) else "image"] += 1
     assert min(kinds.values()) > 10, kinds  # both outcomes exercised
+
+
+def test_compiled_is_true_false_or_none():
+    data = jpeg.encode(np.zeros((8, 8), np.uint8))
+    with pytest.raises(TypeError, match="`compiled` must be True, False or None, got 'yes'"):
+        jpeg.decode(data, compiled="yes")
+    with pytest.raises(TypeError, match="`compiled` must be True, False or None, got 1"):
+        jpeg.encode(np.zeros((8, 8), np.uint8), compiled=1)
+    assert np.array_equal(jpeg.decode(data, compiled=np.bool_(True)), jpeg.decode(data))

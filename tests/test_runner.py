@@ -179,18 +179,19 @@ def test_the_runner_marks_its_kernels_headless():
 
 def test_lab_kernels_get_the_labs_xla_flag_once_and_the_users_choice_wins(monkeypatch, tmp_path):
     """The flag is probed in a child once per jaxlib (this one accepts it), the answer kept
-    on disk; flags that already choose the emitters are left alone."""
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
-    glabs._xla_knows_lab_flag.cache_clear()
-    try:
-        assert glabs.lab_xla_flags("--xla_dump_to=/x") == f"--xla_dump_to=/x {glabs.LAB_XLA_FLAG}"
-        (answer,) = (tmp_path / "gfxlab").iterdir()
-        assert answer.read_text() == "accepted\n"
-        answer.write_text("rejected\n")  # e.g. a jaxlib without the flag
-        glabs._xla_knows_lab_flag.cache_clear()
-        assert glabs.lab_xla_flags("--a") == "--a"
-    finally:
-        glabs._xla_knows_lab_flag.cache_clear()
+    on disk and read from there (a cache folder that says "rejected" leaves the flag out);
+    flags that already choose the emitters are left alone."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "probed"))
+    assert glabs.lab_xla_flags("--xla_dump_to=/x") == f"--xla_dump_to=/x {glabs.LAB_XLA_FLAG}"
+    (answer,) = (tmp_path / "probed" / "gfxlab").iterdir()
+    assert answer.read_text() == "accepted\n"
+    assert glabs.lab_xla_flags("--a") == f"--a {glabs.LAB_XLA_FLAG}"  # the same answer
+    assert list((tmp_path / "probed" / "gfxlab").iterdir()) == [answer]
+    rejected = tmp_path / "rejected" / "gfxlab" / answer.name  # e.g. a jaxlib without the flag
+    rejected.parent.mkdir(parents=True)
+    rejected.write_text("rejected\n")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "rejected"))
+    assert glabs.lab_xla_flags("--a") == "--a"
     mine = "--xla_cpu_use_fusion_emitters=true"
     assert glabs.lab_xla_flags(mine) == mine
     monkeypatch.setenv("XLA_FLAGS", mine)

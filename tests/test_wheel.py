@@ -31,16 +31,17 @@ SMOKE = r"""
 import sys, tempfile
 import gfxlab
 assert "site-packages" in gfxlab.__file__, gfxlab.__file__
-from gfxlab import _resources, color, curves, image, mesh
+from gfxlab import color, curves, image, labs, mesh
 assert color.cmfs().shape[-1] == 3
 assert color.illuminant_d65()[0].shape[0] > 50
 teapot = curves.teapot()
 pawn = mesh.read_obj(mesh.shipped_model_path("pawn.obj"))
-scene = image.read_image(_resources.data_file("images", "scene.png"))
+scene = image.read_image(gfxlab.data_file("images", "scene.png"))
 assert scene.ndim == 3, scene.shape
-labs = sorted(p.name for p in _resources.labs_dir().glob("[0-9]*.ipynb"))
-assert len(labs) >= 10, labs
-assert not (_resources.labs_dir() / "assignments").exists(), "assignment sources shipped"
+shipped = labs.list_labs()  # the labs of the wheel: GFXLAB_LABS is not set
+assert len(shipped) >= 10, shipped
+assert all("site-packages" in str(p) for p in shipped), shipped
+assert not (shipped[0].parent / "assignments").exists(), "assignment sources shipped"
 print("ok")
 """
 
@@ -48,8 +49,9 @@ print("ok")
 NOTEBOOK_TOOLS = re.compile(r"^(jupyter|ipywidgets|nbclient|nbconvert|notebook)", re.IGNORECASE)
 
 
-# The installed copy must be found through the venv alone, not a PYTHONPATH to the checkout.
-CLEAN_ENV = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+# The installed copy must be found through the venv alone, not a PYTHONPATH to the checkout
+# (and its labs are the shipped ones, not a `$GFXLAB_LABS` folder).
+CLEAN_ENV = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "GFXLAB_LABS")}
 
 
 def _tracked_files() -> list[str]:

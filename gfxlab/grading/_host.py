@@ -77,18 +77,26 @@ def _has_controllers(group: pathlib.Path) -> bool:
     return (group / "memory.max").exists() and (group / "pids.max").exists()
 
 
-def _cgroup_parent(
+def cgroup_parent(
     root: str = "/sys/fs/cgroup", self_cgroup: str = "/proc/self/cgroup"
 ) -> str | None:
-    """A cgroup v2 directory where this process may create child groups, if any.
+    """A cgroup v2 directory where this process may create child groups, if any: where
+    the grader puts each submission's group (`detect_protections` asks once).
 
-    The grader's own group (`0::` line of `self_cgroup`, under the unified hierarchy at
-    `root`) must offer the memory, pids and cpu controllers and be writable (a systemd
-    `Delegate=yes` unit, a container with its own cgroup namespace). cgroup v2 allows
-    controllers only in groups without processes of their own, so the grader moves
-    itself into a leaf `gfxlab-grader` first where needed; submissions then get groups
-    under `gfxlab-grading`. None (rlimits and the grader's watch apply) when anything of
-    this is missing or refused.
+    The grader's own group (the `0::` line of `self_cgroup`, under the unified hierarchy
+    at `root`) must offer the memory, pids and cpu controllers and be writable (a
+    systemd `Delegate=yes` unit, a container with its own cgroup namespace). cgroup v2
+    allows controllers only in groups without processes of their own, so the grader
+    moves itself into a leaf `gfxlab-grader` first where needed; submissions then get
+    groups under `gfxlab-grading`, whose controllers a probe group confirms.
+
+    **Arguments:**
+
+    - `root`: the mount point of the unified (v2) hierarchy.
+    - `self_cgroup`: the file naming this process's groups (`/proc/self/cgroup`).
+
+    **Returns:** the path of `gfxlab-grading`, or None when anything of this is missing or
+    refused (then rlimits and the grader's own watch bound a submission).
     """
     top = pathlib.Path(root)
     try:
@@ -120,10 +128,19 @@ def _cgroup_parent(
 
 
 def make_cgroup(parent: str, name: str, *, memory_bytes: int, processes: int) -> str | None:
-    """A submission's group under `parent` with its limits written; None if refused.
+    """A submission's group under `parent`, its limits written.
 
-    `memory.max` (and `memory.swap.max` 0 where swap is accounted), `pids.max`, and
-    `cpu.max` of one core.
+    **Arguments:**
+
+    - `parent`: a delegated group (`cgroup_parent`).
+    - `name`: the new group's folder name.
+    - `memory_bytes`: `memory.max` (and `memory.swap.max` 0, where swap is accounted).
+    - `processes`: `pids.max`, the most tasks of the group.
+
+    `cpu.max` is one core.
+
+    **Returns:** the group's path, or None when the kernel refuses any of it (a group made
+    without the memory and pids controllers is removed again).
     """
     path = pathlib.Path(parent, name)
     try:
@@ -137,7 +154,7 @@ def make_cgroup(parent: str, name: str, *, memory_bytes: int, processes: int) ->
         if not _has_controllers(path):
             raise OSError("the memory and pids controllers are not enabled")
     except OSError:
-        _remove_cgroup(str(path))
+        remove_cgroup(str(path))
         return None
     try:
         (path / "memory.swap.max").write_text("0")
@@ -147,7 +164,14 @@ def make_cgroup(parent: str, name: str, *, memory_bytes: int, processes: int) ->
 
 
 def cgroup_members(path: str) -> list[int]:
-    """Process ids in a group (`cgroup.procs`)."""
+    """The processes in a group.
+
+    **Arguments:**
+
+    - `path`: the group's directory.
+
+    **Returns:** the process ids of its `cgroup.procs` (an empty list if it is unreadable).
+    """
     try:
         return [int(x) for x in pathlib.Path(path, "cgroup.procs").read_text().split()]
     except (OSError, ValueError):
@@ -231,9 +255,18 @@ ALWAYS_FORBIDDEN = ("cffi", "_cffi_backend", "ctypes", "_ctypes")
 
 
 def expand_forbidden(modules) -> list[str]:
-    """`gfxlab` stands for every gfxlab module but `gfxlab.grading` (whose `checks` the
-    public tests import) and what `import gfxlab` itself needs; `ALWAYS_FORBIDDEN` is
-    added to any list."""
+    """The modules a sandbox hides for an assignment's `forbid` list.
+
+    `gfxlab` stands for every gfxlab module but `gfxlab.grading` (whose `checks` the
+    public tests import) and what `import gfxlab` itself needs; the foreign-function
+    interfaces of `ALWAYS_FORBIDDEN` are added to any list.
+
+    **Arguments:**
+
+    - `modules`: module names (`"scipy.fft"`, `"gfxlab"`).
+
+    **Returns:** the module names, without repeats, `ALWAYS_FORBIDDEN` first.
+    """
     out = list(ALWAYS_FORBIDDEN)
     for module in modules:
         if module != "gfxlab":
@@ -248,9 +281,17 @@ def expand_forbidden(modules) -> list[str]:
 
 
 def forbidden_files(modules) -> list[tuple[str, bool]]:
-    """Host files to replace for each forbidden module: (path, is a package directory).
+    """The host files a sandbox replaces by stubs for forbidden modules, found without
+    importing anything.
 
-    A module file also loses its cached bytecode (`__pycache__/NAME.*.pyc`).
+    A module file also loses its cached bytecode (`__pycache__/NAME.*.pyc`); a top-level
+    package also loses the native libraries its wheel bundles (`shapely.libs`).
+
+    **Arguments:**
+
+    - `modules`: module names, as `expand_forbidden` returns them.
+
+    **Returns:** `(real path, is a directory)` pairs; modules not installed give none.
     """
     out = []
     for module in modules:
@@ -371,8 +412,15 @@ def _walk_tree(root: int, children_of, usage_of) -> tuple[int, float]:
     return rss * os.sysconf("SC_PAGE_SIZE"), ticks / os.sysconf("SC_CLK_TCK")
 
 
-def _cgroup_cpu(path: str) -> float | None:
-    """CPU seconds used by a cgroup v2 group (`cpu.stat` `usage_usec`), None if unreadable."""
+def cgroup_cpu_seconds(path: str) -> float | None:
+    """The CPU time a group's processes have used.
+
+    **Arguments:**
+
+    - `path`: the group's directory.
+
+    **Returns:** CPU seconds (`usage_usec` of its `cpu.stat`), or None if unreadable.
+    """
     try:
         for line in pathlib.Path(path, "cpu.stat").read_text().splitlines():
             key, _, value = line.partition(" ")
@@ -390,7 +438,14 @@ def _signal_name(number: int) -> str:
         return f"signal {number}"
 
 
-def _remove_cgroup(path: str) -> None:
+def remove_cgroup(path: str) -> None:
+    """Kill a group's processes (`cgroup.kill`) and remove the group, retrying for up to
+    a second while they exit; a group that stays (still busy) is left in place.
+
+    **Arguments:**
+
+    - `path`: the group's directory.
+    """
     try:
         pathlib.Path(path, "cgroup.kill").write_text("1")
     except OSError:

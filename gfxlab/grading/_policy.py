@@ -118,7 +118,7 @@ class Protections:
             f"resource limits: {applied or self.limits_kind}",
             "seccomp: memfd_create (memory no limit would count), ptrace and "
             "process_vm_writev (writing into other processes) refused"
-            if os.uname().machine in _SECCOMP_ARCH
+            if os.uname().machine in SECCOMP_RULES
             else "seccomp: none for this architecture (memfd memory counts only in a cgroup)",
             "plain-data RPC over a dedicated pipe, strict decoder, per-request random id",
         ]
@@ -139,18 +139,29 @@ _ENABLE = (
 # - ptrace, process_vm_readv, process_vm_writev: writing into another process of the
 #   sandbox (bwrap's init, to outlive the grading) or patching its own code.
 # (Writes through /proc/PID/mem are closed by mounting /proc read-only.)
-_SECCOMP_ARCH = {
+SECCOMP_RULES = {
     "x86_64": (0xC000003E, {"memfd_create": 319, "memfd_secret": 447, "ptrace": 101,
                             "process_vm_readv": 310, "process_vm_writev": 311}),
     "aarch64": (0xC00000B7, {"memfd_create": 279, "memfd_secret": 447, "ptrace": 117,
                              "process_vm_readv": 270, "process_vm_writev": 271}),
 }  # fmt: skip
+"""The seccomp rules per machine (`os.uname().machine`): the audit architecture the
+filter admits (any other, 32-bit or x32, is refused) and the system calls it refuses
+with EPERM, by name and number."""
 
 
 def seccomp_program(machine: str | None = None) -> bytes | None:
-    """The filter for `machine` (default: this machine's architecture, `os.uname`);
-    None where the architecture is not known."""
-    arch = _SECCOMP_ARCH.get(machine or os.uname().machine)
+    """The seccomp filter the sandbox gives bwrap, as classic BPF.
+
+    **Arguments:**
+
+    - `machine`: an architecture of `SECCOMP_RULES`; None: this machine's (`os.uname`).
+
+    **Returns:** the program (8-byte `sock_filter` instructions) that refuses the rules'
+    system calls, any other architecture and the x32 ABI with EPERM and allows the rest;
+    None where the architecture is not known (no filter: the result says so).
+    """
+    arch = SECCOMP_RULES.get(machine or os.uname().machine)
     if arch is None:
         return None
     audit, refused = arch

@@ -385,9 +385,26 @@ class _Worker:
         shutil.rmtree(self.scratch, ignore_errors=True)
 
 
-def _run_pool(tasks, jobs, hard_limit, grade=None):
-    """Grade `tasks` in `jobs` grader processes; one running past `hard_limit` seconds on
-    a submission is killed (and replaced), whatever happens in it, and the rest go on.
+def run_pool(tasks, jobs: int, hard_limit: float, *, grade=None) -> list:
+    """The grader processes of `grade_many`: grade `tasks` in `jobs` processes, killing
+    (and replacing) one that runs past `hard_limit` seconds on a task, whatever happens
+    in it, while the rest go on.
+
+    **Arguments:**
+
+    - `tasks`: one tuple per submission, `(autograder folder, notebook path, label,
+      Limits or None, whether a spare sandbox should start for the next one)`.
+    - `jobs`: grader processes (at most one per task).
+    - `hard_limit`: wall seconds one task may take in its process.
+    - `grade`: the function a process applies to a task (default: grade the notebook
+      with the autograder); a picklable top-level function, since the processes are
+      spawned.
+
+    **Returns:** the results of `grade`, in the order of `tasks`; a task that was stopped
+    or whose process died gets a `GradeResult` whose `error` says so.
+
+    **Raises:** `RuntimeError` when a grader process does not start within
+    `STARTUP_SECONDS`.
     """
     from multiprocessing.connection import wait
 
@@ -470,7 +487,7 @@ def grade_many(submissions, autograder_dir, out_dir, *, jobs=None, limits=None):
     budgets = 2 if grader.config.get("separate") else 1
     hard_limit = budgets * grader.limits(limits).budget_seconds + HARD_MARGIN_SECONDS
     results = [None] * len(order)
-    for k, result in zip(order, _run_pool(tasks, jobs, hard_limit), strict=True):
+    for k, result in zip(order, run_pool(tasks, jobs, hard_limit), strict=True):
         results[k] = result
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

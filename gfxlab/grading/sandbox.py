@@ -12,6 +12,11 @@ namespace (grader not root), and dies with the grader. Resource limits come from
 (`memory.max`, `pids.max`, `cpu.max`) where the host delegates it, and from rlimits always;
 `GradeResult` says which applied. Requests and replies travel over a dedicated pipe pair,
 not stdout; every request carries a random id the reply must echo.
+
+What the sandbox is made of is public here, for instructors and auditors:
+`forbidden_files(expand_forbidden(modules))` (what an assignment's `forbid` list hides),
+`seccomp_program` and `SECCOMP_RULES` (the system-call filter), and the cgroup v2 groups:
+`cgroup_parent`, `make_cgroup`, `cgroup_members`, `cgroup_cpu_seconds`, `remove_cgroup`.
 """
 
 from __future__ import annotations
@@ -37,13 +42,10 @@ from ._host import (
     _PACKAGE,
     _PACKAGE_TARGET,
     _SCRATCH_INODES,
-    _cgroup_cpu,
-    _cgroup_parent,
     _closed_to_others,
     _minimal_env,
     _package_inside,
     _python,
-    _remove_cgroup,
     _runtime_paths,
     _signal_name,
     _source,
@@ -51,10 +53,13 @@ from ._host import (
     _tasks_of,
     _tree_usage,
     bwrap_binary,
+    cgroup_cpu_seconds,
     cgroup_members,
+    cgroup_parent,
     expand_forbidden,
     forbidden_files,
     make_cgroup,
+    remove_cgroup,
     sandbox_path,
 )
 from ._policy import (
@@ -64,6 +69,9 @@ from ._policy import (
     Protections,
     limits_kind,
     seccomp_program,
+)
+from ._policy import (
+    SECCOMP_RULES as SECCOMP_RULES,  # public here: what `seccomp_program` refuses
 )
 
 
@@ -81,7 +89,7 @@ def detect_protections() -> Protections:
         if blocker is not None:
             blocked.setdefault(str(blocker), []).append(str(path))
     expose = tuple((b, tuple(p)) for b, p in blocked.items())
-    prot = Protections(bwrap, root, expose, _cgroup_parent())
+    prot = Protections(bwrap, root, expose, cgroup_parent())
     # Each sandbox's working folder is made in the temporary folder, and the submission's
     # own uid must enter it (a TMPDIR below a private folder would stop every start).
     temp = pathlib.Path(tempfile.gettempdir())
@@ -311,7 +319,7 @@ class Sandbox:
     def _joined_cgroup(self) -> None:
         """After the start: the process is in its group, or no cgroup counts as applied."""
         if self.cgroup and self.proc.pid not in cgroup_members(self.cgroup):
-            _remove_cgroup(self.cgroup)
+            remove_cgroup(self.cgroup)
             self.cgroup = None
         self.applied.add(limits_kind(self.cgroup is not None))
 
@@ -494,10 +502,12 @@ class Sandbox:
             missing -= len(chunk)
         return b"".join(chunks)
 
-    def _cpu_used(self) -> float:
-        """CPU seconds used so far by the submission's processes (cgroup, else /proc)."""
+    def cpu_seconds(self) -> float:
+        """CPU seconds used so far by the submission's processes: its cgroup's account
+        where it has one (`cgroup_cpu_seconds`), else the process tree's from /proc; 0
+        before it starts."""
         if self.cgroup:
-            seconds = _cgroup_cpu(self.cgroup)
+            seconds = cgroup_cpu_seconds(self.cgroup)
             if seconds is not None:
                 return seconds
         if self.proc is None:
@@ -516,7 +526,7 @@ class Sandbox:
         if not force and now - self._memory_checked < _MEMORY_POLL:
             return
         self._memory_checked = now
-        rss, cpu = (0, self._cpu_used()) if self.cgroup else _tree_usage(self.proc.pid)
+        rss, cpu = (0, self.cpu_seconds()) if self.cgroup else _tree_usage(self.proc.pid)
         if rss > int(self.limits.memory_mb) * 2**20:
             self.close()
             raise Crash(
@@ -569,7 +579,7 @@ class Sandbox:
                 except OSError:
                     pass
         if self.cgroup:
-            _remove_cgroup(self.cgroup)
+            remove_cgroup(self.cgroup)
             self.cgroup = None
         if self.workdir:
             shutil.rmtree(self.workdir, ignore_errors=True)

@@ -142,8 +142,8 @@ def _cdiv(a: int, b: int) -> int:
 class _State:
     """What the markers before the scan said."""
 
-    def __init__(self, max_pixels):
-        self.max_pixels = max_pixels
+    def __init__(self, max_pixels, compiled: bool | None = None):
+        self.max_pixels, self.compiled = max_pixels, compiled
         self.quant: dict = {}
         self.huff: dict = {}
         self.frame = None
@@ -183,11 +183,11 @@ class _State:
         return "rgb" if tuple(c[0] for c in comps) == (82, 71, 66) else "ycc"
 
 
-def _decode(d: bytes, max_pixels) -> np.ndarray:  # noqa: C901 - one branch per JPEG marker
+def _decode(d: bytes, max_pixels, compiled=None) -> np.ndarray:  # noqa: C901 - one per marker
     n = len(d)
     if n < 4 or d[0] != 0xFF or d[1] != 0xD8:
         raise JPEGError("not a JPEG file: missing SOI marker")
-    state = _State(max_pixels)
+    state = _State(max_pixels, compiled)
     image = None
     pos = 2
     while True:  # every pass consumes at least one byte, so this ends
@@ -268,10 +268,11 @@ def _decode_image(state: _State, sos: bytes, data: bytes) -> np.ndarray:
     factors = tuple((c[1], c[2]) for c in comps)
     dest, places = _destinations(height, width, factors, tuple(order))
     n_mcu = dest.size // len(plan)
-    coef, stride = decode_scan(data, plan, n_mcu, state.restart, dest)
+    coef, stride = decode_scan(data, plan, n_mcu, state.restart, dest, compiled=state.compiled)
     tables = np.stack([state.quant[c[3]] for c in comps]).astype(np.int32)
     geometry = (height, width, factors, places, state.colour())
-    if height * width >= _COMPILE_FROM_PIXELS:
+    compiled = state.compiled
+    if height * width >= _COMPILE_FROM_PIXELS if compiled is None else compiled:
         return _reconstruct_compiled(coef, stride, tables, geometry)
     return _reconstruct(np.asarray(coef), stride, tables, geometry)
 
@@ -381,7 +382,16 @@ def _compiled_finish(geometry):
     return jax.jit(finish)
 
 
-def decode(data, *, max_pixels: int | None = MAX_PIXELS) -> np.ndarray:
+def check_compiled(compiled) -> bool | None:
+    """The `compiled` option of `encode` and `decode`: True, False or None."""
+    if compiled is not None and not isinstance(compiled, bool | np.bool_):
+        raise TypeError(f"`compiled` must be True, False or None, got {compiled!r:.60}")
+    return None if compiled is None else bool(compiled)
+
+
+def decode(
+    data, *, max_pixels: int | None = MAX_PIXELS, compiled: bool | None = None
+) -> np.ndarray:
     """Decode a baseline JPEG file exactly as libjpeg-turbo does by default (islow
     IDCT, fancy upsampling), e.g. as Pillow's `Image.open(...)`.
 
@@ -394,12 +404,16 @@ def decode(data, *, max_pixels: int | None = MAX_PIXELS) -> np.ndarray:
 
     Images of 1024 blocks or more (64 K pixels) are entropy-decoded by a compiled XLA
     loop and reconstructed by two compiled programs: the first file of a size bucket
-    compiles them (seconds), later files of similar size reuse them.
+    compiles them (seconds), later files of similar size reuse them. Smaller images are
+    decoded in Python and NumPy. `compiled` overrides that choice; the pixels are the same.
 
     **Arguments:**
 
     - `data`: the file's bytes (`bytes`, `bytearray` or `memoryview`).
     - `max_pixels`: refuse frames of more pixels than this (`None`: no limit).
+    - `compiled`: `True` decodes with the compiled programs whatever the size (worth it
+      for many small files of one size), `False` without them (no compilation: a
+      one-off file in a short-lived process); `None` chooses by size.
 
     **Returns:**
 
@@ -418,9 +432,10 @@ def decode(data, *, max_pixels: int | None = MAX_PIXELS) -> np.ndarray:
             raise TypeError(f"`max_pixels` must be an int or None, got {max_pixels!r}")
         if max_pixels < 1:
             raise ValueError(f"`max_pixels` must be >= 1, got {max_pixels}")
+    compiled = check_compiled(compiled)
     d = bytes(data)
     try:
-        return _decode(d, max_pixels)
+        return _decode(d, max_pixels, compiled)
     except JPEGError:
         raise
     except (IndexError, ValueError, OverflowError, KeyError) as err:  # defensive net

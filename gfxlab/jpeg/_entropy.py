@@ -126,7 +126,7 @@ def windows(stream: np.ndarray) -> memoryview:
     return memoryview(out)
 
 
-def decode_scan(data: bytes, plan, n_mcu: int, restart: int, dest: np.ndarray):
+def decode_scan(data: bytes, plan, n_mcu: int, restart: int, dest: np.ndarray, *, compiled=None):
     """Entropy-decode one interleaved (or single-component) baseline scan.
 
     **Arguments:**
@@ -135,6 +135,8 @@ def decode_scan(data: bytes, plan, n_mcu: int, restart: int, dest: np.ndarray):
     - `plan`: per block of an MCU, `(component, dc HuffmanTable, ac HuffmanTable)`.
     - `n_mcu`: MCUs in the scan; `restart`: the restart interval (0: none).
     - `dest`: `(blocks,)` where each block (in scan order) goes in the output.
+    - `compiled`: decode with the compiled loop (`True`), in Python (`False`), or from
+      `COMPILE_FROM_BLOCKS` blocks on (`None`).
 
     **Returns:**
 
@@ -152,7 +154,7 @@ def decode_scan(data: bytes, plan, n_mcu: int, restart: int, dest: np.ndarray):
         )
     if restart and -(-n_mcu // restart) > len(starts) - 1:
         raise JPEGError("truncated JPEG: missing restart interval")
-    if n_blocks >= COMPILE_FROM_BLOCKS:
+    if n_blocks >= COMPILE_FROM_BLOCKS if compiled is None else compiled:
         from gfxlab.jpeg._entropy_xla import _MESSAGES, decode_scan_compiled
 
         status, bit, coef, stride = decode_scan_compiled(stream, starts, plan, n_mcu, restart, dest)

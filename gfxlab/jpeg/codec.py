@@ -20,7 +20,7 @@ from gfxlab._checks import is_traced
 from gfxlab._pixels import to_uint8
 from gfxlab.jpeg import _encoder as E
 from gfxlab.jpeg import _libjpeg as L
-from gfxlab.jpeg._decoder import MAX_PIXELS, JPEGError, decode
+from gfxlab.jpeg._decoder import MAX_PIXELS, JPEGError, check_compiled, decode
 from gfxlab.jpeg._tables import (
     AC_CHROMINANCE,
     AC_LUMINANCE,
@@ -197,7 +197,9 @@ def _dht(table_class: int, table_id: int, spec) -> bytes:
     return _segment(0xC4, bytes([table_class << 4 | table_id, *bits, *values]))
 
 
-def encode(image, *, quality: int = 75, subsampling: str = "4:2:0") -> bytes | list[bytes]:
+def encode(
+    image, *, quality: int = 75, subsampling: str = "4:2:0", compiled: bool | None = None
+) -> bytes | list[bytes]:
     """Encode an image (or a stack of images) as baseline JFIF files, exactly as
     libjpeg-turbo does.
 
@@ -207,7 +209,8 @@ def encode(image, *, quality: int = 75, subsampling: str = "4:2:0") -> bytes | l
 
     Images of 65,536 pixels or more run as compiled XLA programs: the first call for
     an image size compiles them (about half a second on a laptop CPU), later calls of
-    that size, at any quality, reuse them. Smaller images run in NumPy.
+    that size, at any quality, reuse them. Smaller images run in NumPy. `compiled`
+    overrides that choice; the bytes are the same.
 
     A stack `(B, H, W, 3)` (RGB) or `(B, H, W, 1)` (grey) is encoded as a batch: one
     validation and conversion of the whole stack, one set of headers, and a pipeline
@@ -221,6 +224,9 @@ def encode(image, *, quality: int = 75, subsampling: str = "4:2:0") -> bytes | l
     - `quality`: IJG quality, an int in 1..100.
     - `subsampling`: chroma subsampling `"4:4:4"`, `"4:2:2"` or `"4:2:0"`. For a grey
       image only the frame header's sampling factors change (as Pillow writes them).
+    - `compiled`: `True` runs the compiled programs whatever the size (worth it for many
+      small images of one size), `False` NumPy alone (no compilation: a one-off image in
+      a short-lived process); `None` chooses by size.
 
     **Returns:**
 
@@ -230,15 +236,16 @@ def encode(image, *, quality: int = 75, subsampling: str = "4:2:0") -> bytes | l
     arr = _as_uint8(image, batch=batch)
     quality = _check_quality(quality)
     luma_factors = _check_subsampling(subsampling)
+    compiled = check_compiled(compiled)
     if batch:
-        return _encode_batch(arr, quality, luma_factors)
+        return _encode_batch(arr, quality, luma_factors, compiled)
     height, width = arr.shape[:2]
     factors = (luma_factors,) if arr.ndim == 2 else (luma_factors, (1, 1), (1, 1))
-    scan = _scan(arr, quality, E.layout(height, width, factors))
+    scan = _scan(arr, quality, E.layout(height, width, factors), compiled=compiled)
     return _headers(height, width, quality, factors) + scan + b"\xff\xd9"
 
 
-def _encode_batch(arr: np.ndarray, quality: int, luma_factors) -> list[bytes]:
+def _encode_batch(arr: np.ndarray, quality: int, luma_factors, compiled) -> list[bytes]:
     """`encode` of each image of a uint8 stack `(B, H, W[, 3])`, pipelined: the compiled
     programs of image k + 1 are dispatched (XLA runs them asynchronously, on its own
     threads) before NumPy packs the bits of image k."""
@@ -246,7 +253,8 @@ def _encode_batch(arr: np.ndarray, quality: int, luma_factors) -> list[bytes]:
     factors = (luma_factors,) if arr.ndim == 3 else (luma_factors, (1, 1), (1, 1))
     lay = E.layout(height, width, factors)
     head = _headers(height, width, quality, factors)
-    if height * width < _COMPILE_FROM_PIXELS:  # NumPy: nothing to overlap
+    if not (height * width >= _COMPILE_FROM_PIXELS if compiled is None else compiled):
+        # NumPy: nothing to overlap
         return [head + _scan(image, quality, lay, compiled=False) + b"\xff\xd9" for image in arr]
     plan = E.band_plan(height, width, tuple(c.factors for c in lay.components))
     programs = [(E.compiled_band_events(band), row) for row, band in plan]
