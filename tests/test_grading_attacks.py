@@ -35,6 +35,7 @@ from grading_attacks.attacks import (
 )
 
 from gfxlab.grading import Limits, assign
+from gfxlab.grading.grader import HARD_MARGIN_SECONDS
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SOURCE = ROOT / "labs/assignments/01_midpoint_circle.ipynb"
@@ -274,7 +275,9 @@ def _check_attack(name, report, hidden_names, seconds):
     if name in LEAK_ONLY:
         return
     assert scores["q2"] == 5 and scores["q3"] == 5, (name, report)
-    assert seconds < 40, name
+    # Within the grader's promise (its hard limit: the budget plus the start-up margin); a
+    # fixed 40 s failed on a loaded 2-core machine, where sandboxes start slowly.
+    assert seconds < LIMITS["budget_seconds"] + HARD_MARGIN_SECONDS, name
 
 
 def _host_is_clean():

@@ -49,7 +49,7 @@ def test_a_test_slow_on_the_students_data_times_out_and_scores_zero():
             pass
 
     started = time.monotonic()
-    result = _grader(0.5)._run_test(
+    result = _grader(0.5).run_test(
         test_points_unique, SPEC, _FakeSession(_colliding_pairs(2000)), {}
     )
     assert not result.passed and result.message.startswith("timed out")
@@ -62,10 +62,10 @@ def test_the_deadline_waits_for_a_call_to_the_student_to_finish():
     def test_points_unique(circle_points):
         assert circle_points(5) == [1, 2]
 
-    result = _grader(0.2)._run_test(test_points_unique, SPEC, session, {})
+    result = _grader(0.2).run_test(test_points_unique, SPEC, session, {})
     assert session.calls == 1  # the call was not interrupted mid-message
     assert not result.passed and result.message.startswith("timed out")
-    fast = _grader(5.0)._run_test(test_points_unique, SPEC, _FakeSession([1, 2]), {})
+    fast = _grader(5.0).run_test(test_points_unique, SPEC, _FakeSession([1, 2]), {})
     assert fast.passed and fast.message == ""
 
 
@@ -129,13 +129,14 @@ def test_grade_one_is_stopped_at_the_hard_limit(tmp_path, monkeypatch):
     config = {"assignment": "a", "questions": [], "limits": {"budget_seconds": 1.0}}
     (tmp_path / "config.json").write_text(json.dumps(config))
     monkeypatch.setattr(grader_module, "HARD_MARGIN_SECONDS", 0.5)
-    monkeypatch.setattr(Autograder, "_launch_spare", lambda self, limits: None)
     monkeypatch.setattr(Autograder, "grade", lambda self, submission, **kw: _spin_forever())
     started = time.monotonic()
-    result = grader_module.grade_one(tmp_path, tmp_path / "x.ipynb")
+    result = grader_module.grade_one(tmp_path, tmp_path / "x.ipynb", warm=False)
     assert "longer than 1.5 s and was stopped" in result.error
     assert result.to_gradescope()["extra_data"]["grading_error"] is True
     assert time.monotonic() - started < 20
+    with pytest.raises(TypeError, match="`warm` must be True or False"):
+        grader_module.grade_one(tmp_path, tmp_path / "x.ipynb", warm="no")
 
 
 def test_assignments_forbid_ready_made_solvers():

@@ -104,3 +104,11 @@ def run_bounded(work, seconds: float):
         proc.join()
         receive.close()
     return outcome
+
+
+def _bounded(text: str, limit: int) -> str:
+    """At most `limit` characters of printable text (control characters become spaces)."""
+    text = str(text)
+    if len(text) > limit:
+        text = text[:limit] + " [...]"
+    return "".join(c if c.isprintable() or c == "\n" else " " for c in text)

@@ -25,6 +25,7 @@ import tempfile
 import time
 
 from . import authoring, mutants
+from ._bounds import HARD_MARGIN_SECONDS
 from .grader import Autograder, GradeResult, QuestionResult, TestResult, _bounded
 from .sandbox import detect_protections, require_confinement
 
@@ -355,8 +356,6 @@ def _pool_worker(conn, grade=None, scratch=None):
         conn.send(grade(task))
 
 
-# Beyond the submission's own budget: the grader's start-up and result writing.
-HARD_MARGIN_SECONDS = 30.0
 STARTUP_SECONDS = 300.0  # a grader process's own start (imports), before any submission
 
 

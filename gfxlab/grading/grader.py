@@ -30,6 +30,7 @@ from ._bounds import (
     _NO_DEADLINE,
     HARD_MARGIN_SECONDS,
     TEST_CPU_SECONDS,
+    _bounded,
     _CpuDeadline,
     _TestTimedOut,
     run_bounded,
@@ -210,14 +211,6 @@ def _gradescope_entries(q: QuestionResult) -> list[dict]:
             }
         )
     return entries
-
-
-def _bounded(text: str, limit: int) -> str:
-    """At most `limit` characters of printable text (control characters become spaces)."""
-    text = str(text)
-    if len(text) > limit:
-        text = text[:limit] + " [...]"
-    return "".join(c if c.isprintable() or c == "\n" else " " for c in text)
 
 
 @dataclasses.dataclass
@@ -510,12 +503,17 @@ class Autograder:
                 continue
             if spec.hidden:  # from now on, replays show no student text (see _ensure)
                 session.hidden_started = True
-            out.append(self._run_test(namespace[spec.name], spec, session, rename))
+            out.append(self.run_test(namespace[spec.name], spec, session, rename))
         return QuestionResult(question.name, question.points, out)
 
-    def _run_test(self, test, spec, session, rename) -> TestResult:
-        """One test under the grader's CPU deadline: a test the student's data makes slow
-        here (e.g. colliding hashes in the test's own sets) fails as "timed out"."""
+    def run_test(self, test, spec, session, rename=None) -> TestResult:
+        """Run `test` (its `authoring.TestSpec` is `spec`) against the student `session`
+        (what answers calls of the student's functions: anything with `StudentSession.call`;
+        `rename` maps a parameter to another function name) under the CPU deadline
+        `config["test_cpu_seconds"]`: a test the student's data makes slow here (e.g.
+        colliding hashes in its own sets) fails as "timed out". **Returns:** the
+        `TestResult` (a bounded message; for a hidden test, the kind of failure only)."""
+        rename = rename or {}
         seconds = float(self.config.get("test_cpu_seconds", TEST_CPU_SECONDS))
         try:
             with _CpuDeadline(seconds) as deadline:
@@ -565,21 +563,23 @@ class Autograder:
         return self.grade_cells(cells, label=label, numbers=numbers, **kwargs)
 
 
-def grade_one(directory, submission, *, limits=None) -> GradeResult:
+def grade_one(directory, submission, *, limits=None, warm=True) -> GradeResult:
     """Grade one notebook with the autograder in `directory`, in a child process killed at
     the hard limit (`Autograder.hard_limit`): a submission whose data makes the grader's
     own code slow gets a bounded grader-error result, never a grader that runs forever.
 
-    The child starts its sandbox while the tests load (as `Autograder(warm=True)`).
+    With `warm` the child starts its sandbox while the tests load (`Autograder(warm=True)`).
     `IsolationUnavailable` and other grader failures in the child are raised here.
     """
+    if not isinstance(warm, bool):
+        raise TypeError(f"`warm` must be True or False, got {warm!r:.40}")
     # No tests load here before the fork (a test file could start JAX's threads).
     light = Autograder.without_tests(directory, assignment="", preload=(), forbid=())
     light.config = json.loads((light.directory / "config.json").read_text())
     label = _bounded(pathlib.Path(submission).name, 200)
 
     def work():
-        child = Autograder(directory, warm=True, limits=limits)
+        child = Autograder(directory, warm=warm, limits=limits)
         child.warm = False
         try:
             return child.grade(submission, limits=limits)
