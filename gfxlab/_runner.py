@@ -76,14 +76,14 @@ def kernel_env(*, cache: bool = True) -> dict[str, str]:
 def list_labs(directory: pathlib.Path | None = None) -> list[pathlib.Path]:
     """The numbered lab notebooks, in syllabus order."""
     directory = labs_dir() if directory is None else directory
+    if not directory.is_dir():  # only $GFXLAB_LABS can lead here (`labs.list_labs` checks)
+        raise NotADirectoryError(f"$GFXLAB_LABS must be an existing folder, got {str(directory)!r}")
     return sorted(p for p in directory.glob("[0-9][0-9]_*.ipynb"))
 
 
 def lab_title(path: pathlib.Path) -> str:
     """The first Markdown heading of a notebook (its file name if it has none)."""
-    import nbformat
-
-    nb = nbformat.read(path, as_version=4)
+    nb = read_notebook(path)
     for cell in nb.cells:
         if cell.cell_type == "markdown":
             for line in cell.source.splitlines():
@@ -98,15 +98,29 @@ def find_lab(name: str, directory: pathlib.Path | None = None) -> pathlib.Path:
     if path.suffix == ".ipynb" and path.exists():
         return path
     labs = list_labs(directory)
-    key = name.removesuffix(".ipynb")
+    key = name.removesuffix(".ipynb").lower()
     if key.isdigit():
         key = f"{int(key):02d}_"
-    matches = [p for p in labs if p.stem.startswith(key) or key in p.stem.split("_", 1)[-1]]
+    stems = [(p, p.stem.lower()) for p in labs]
+    matches = [p for p, stem in stems if stem.startswith(key) or key in stem.split("_", 1)[-1]]
     if len(matches) == 1:
         return matches[0]
     names = ", ".join(p.stem for p in labs) or "(none found)"
     what = "matches several labs" if matches else "matches no lab"
+    if not matches and path.suffix == ".ipynb":
+        what = "is not a notebook file and matches no lab"
     raise LookupError(f"{name!r} {what}; the labs are: {names}")
+
+
+def read_notebook(path: pathlib.Path):
+    """The notebook at `path`; a file that is not one is a `ValueError` naming it."""
+    import nbformat
+
+    try:
+        return nbformat.read(path, as_version=4)
+    except (ValueError, nbformat.reader.NotJSONError, nbformat.ValidationError) as err:
+        first = str(err).strip().splitlines()[0][:200] if str(err).strip() else type(err).__name__
+        raise ValueError(f"`path` {str(path)!r} is not a readable notebook: {first}") from None
 
 
 def _html(nb) -> str:
@@ -143,7 +157,7 @@ def run_lab(path, out_dir, *, timeout=600, cache=True) -> pathlib.Path:
 
     path, out_dir = pathlib.Path(path), pathlib.Path(out_dir)
     timeout = _check_timeout(timeout)
-    nb = nbformat.read(path, as_version=4)
+    nb = read_notebook(path)
     current: dict = {"index": None}
 
     def on_cell_start(cell, cell_index, **_):

@@ -267,7 +267,8 @@ def list_labs(directory: pathlib.Path | str | None = None) -> list[pathlib.Path]
 
     **Returns:** the notebook paths, sorted (an empty list when the folder holds none).
 
-    **Raises:** `NotADirectoryError` when `directory` is not an existing folder.
+    **Raises:** `NotADirectoryError` when `directory` (or `$GFXLAB_LABS`) is not an
+    existing folder; `TypeError` when `directory` is not a path.
     """
     from . import _runner
 
@@ -310,10 +311,12 @@ def lab_title(path: pathlib.Path | str) -> str:
 
     **Returns:** its first Markdown heading, without the `#`s (the file's name if it has
     no heading).
+
+    **Raises:** as `run_lab` for a `path` that is not a readable `.ipynb` file.
     """
     from . import _runner
 
-    return _runner.lab_title(pathlib.Path(path))
+    return _runner.lab_title(_check_notebook(path))
 
 
 def _check_flag(value, name: str) -> bool:
@@ -354,7 +357,8 @@ def run_lab(
 
     **Raises:** `LabError` (naming the cell, with the partial HTML already written) when
     a cell raises, runs longer than `timeout`, or the kernel dies; `ValueError` for a
-    `timeout` that is not positive and finite or a `path` that is not a `.ipynb` file;
+    `timeout` that is not positive and finite or a `path` that is not a readable `.ipynb`
+    file;
     `FileNotFoundError` when there is no notebook at `path`; `TypeError` for a `timeout`
     that is not a number or a `cache` that is not `True`/`False`.
     """
@@ -369,21 +373,25 @@ def run_lab(
 
 
 def _check_folder(directory, name: str) -> pathlib.Path:
+    if not isinstance(directory, str | os.PathLike):
+        raise TypeError(f"`{name}` must be a folder path, got {type(directory).__name__}")
     folder = pathlib.Path(directory)
     if not folder.is_dir():
         raise NotADirectoryError(f"`{name}` must be an existing folder, got {str(folder)!r}")
     return folder
 
 
-def _check_notebook(path) -> pathlib.Path:
+def _check_notebook(path, name: str = "path") -> pathlib.Path:
     """`path` as an existing `.ipynb` file, or a clear error (not nbformat's JSON error)."""
+    if not isinstance(path, str | os.PathLike):
+        raise TypeError(f"`{name}` must hold notebook paths, got {type(path).__name__}")
     notebook = pathlib.Path(path)
     if notebook.suffix != ".ipynb":
         raise ValueError(
-            f"`path` must be a Jupyter notebook (a .ipynb file), got {str(notebook)!r}"
+            f"`{name}` must be a Jupyter notebook (a .ipynb file), got {str(notebook)!r}"
         )
     if not notebook.is_file():
-        raise FileNotFoundError(f"`path`: no notebook at {str(notebook)!r}")
+        raise FileNotFoundError(f"`{name}`: no notebook at {str(notebook)!r}")
     return notebook
 
 
@@ -413,8 +421,12 @@ def run_all(
     from . import _runner
 
     timeout, cache = _check_timeout(timeout), _check_flag(cache, "cache")
+    if log is not None and not callable(log):
+        raise TypeError(f"`log` must be a function of a LabRun or None, got {type(log).__name__}")
     if labs is not None:  # every notebook checked before the first kernel starts
-        labs = [_check_notebook(lab) for lab in labs]
+        if isinstance(labs, str | bytes | os.PathLike) or not hasattr(labs, "__iter__"):
+            raise TypeError(f"`labs` must be a list of notebook paths, got {type(labs).__name__}")
+        labs = [_check_notebook(lab, "labs") for lab in labs]
     return _runner.run_all(out_dir, labs=labs, timeout=timeout, cache=cache, log=log)
 
 

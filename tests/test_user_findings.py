@@ -196,3 +196,36 @@ def test_lab_error_without_html_says_nothing_of_it():
     error = labs.LabError("00_welcome.ipynb", None, "", "the kernel died", None)
     assert "partial HTML" not in str(error) and "None" not in str(error)
     assert "partial HTML" in str(labs.LabError("x.ipynb", 0, "1/0", "ZeroDivisionError", "x.html"))
+
+
+def test_lab_runner_arguments_are_checked_before_anything_runs(tmp_path, monkeypatch):
+    bad = tmp_path / "broken.ipynb"
+    bad.write_text("{not json")
+    for call in (lambda: labs.run_lab(bad, tmp_path), lambda: labs.lab_title(bad)):
+        with pytest.raises(ValueError, match="is not a readable notebook"):
+            call()
+    with pytest.raises(TypeError, match="`log` must be a function"):
+        labs.run_all(tmp_path / "out", labs=[labs.find_lab(0)], log=5)
+    with pytest.raises(TypeError, match="`labs` must be a list of notebook paths"):
+        labs.run_all(tmp_path / "out", labs="00_welcome.ipynb")
+    with pytest.raises(TypeError, match="`labs` must hold notebook paths, got int"):
+        labs.run_all(tmp_path / "out", labs=[labs.find_lab(0), 3])
+    with pytest.raises(TypeError, match="`directory` must be a folder path"):
+        labs.list_labs(5)
+    assert not (tmp_path / "out").exists()
+    assert labs.find_lab("TRANSFORMS") == labs.find_lab("transforms")
+    with pytest.raises(LookupError, match="is not a notebook file and matches no lab"):
+        labs.find_lab(tmp_path / "nope.ipynb")
+    monkeypatch.setenv("GFXLAB_LABS", str(tmp_path / "missing"))
+    with pytest.raises(NotADirectoryError, match=r"\$GFXLAB_LABS must be an existing folder"):
+        labs.list_labs()
+
+
+def test_decode_takes_a_uint8_array_of_the_file():
+    from gfxlab import jpeg
+
+    image = np.arange(16 * 16 * 3, dtype=np.uint8).reshape(16, 16, 3)
+    data = jpeg.encode(image)
+    np.testing.assert_array_equal(jpeg.decode(np.frombuffer(data, np.uint8)), jpeg.decode(data))
+    with pytest.raises(TypeError, match="`data` must be bytes"):
+        jpeg.decode(np.frombuffer(data, np.uint8).astype(np.int16))

@@ -409,7 +409,7 @@ def decode(
 
     **Arguments:**
 
-    - `data`: the file's bytes (`bytes`, `bytearray` or `memoryview`).
+    - `data`: the file's bytes (`bytes`, `bytearray`, `memoryview` or a 1-D uint8 array).
     - `max_pixels`: refuse frames of more pixels than this (`None`: no limit).
     - `compiled`: `True` decodes with the compiled programs whatever the size (worth it
       for many small files of one size), `False` without them (no compilation: a
@@ -425,8 +425,13 @@ def decode(
     lossless, 12-bit, CMYK/YCCK files, or frames over `max_pixels`. Every loop is
     bounded by the input length.
     """
+    if isinstance(data, np.ndarray) and data.dtype == np.uint8 and data.ndim == 1:
+        data = data.tobytes()  # e.g. np.fromfile(path, np.uint8)
     if not isinstance(data, bytes | bytearray | memoryview):
-        raise TypeError(f"`data` must be bytes, got {type(data).__name__}")
+        raise TypeError(
+            "`data` must be bytes (or bytearray, memoryview, a 1-D uint8 array), got "
+            f"{type(data).__name__}"
+        )
     if max_pixels is not None:
         if isinstance(max_pixels, bool) or not isinstance(max_pixels, int | np.integer):
             raise TypeError(f"`max_pixels` must be an int or None, got {max_pixels!r}")

@@ -220,7 +220,8 @@ def encode(
     **Arguments:**
 
     - `image`: `(H, W, 3)` RGB or `(H, W)` / `(H, W, 1)` grey; uint8, or float in
-      [0, 1] (rounded to uint8 first); or a stack of them as above.
+      [0, 1] (clipped to [0, 1], then rounded to uint8, as `image.write_image` does;
+      booleans become 0/255; other integers must lie in 0..255); or a stack of them.
     - `quality`: IJG quality, an int in 1..100.
     - `subsampling`: chroma subsampling `"4:4:4"`, `"4:2:2"` or `"4:2:0"`. For a grey
       image only the frame header's sampling factors change (as Pillow writes them).
