@@ -330,8 +330,8 @@ def check_allocation(elements: int, name: str, *, limit: int = MAX_ELEMENTS) -> 
     """
     if elements > limit:
         raise ValueError(
-            f"`{name}` asks for {elements} array elements, more than the limit of {limit} "
-            "(gfxlab._checks.MAX_ELEMENTS)"
+            f"`{name}` asks for {elements} array elements, more than gfxlab's limit of "
+            f"{limit} per array (1 GiB of float64): ask for less, or work in pieces"
         )
     return elements
 

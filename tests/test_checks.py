@@ -257,7 +257,7 @@ def test_static_shape_and_allocation_limit():
         viewing.ndc_to_pixels(points, (0, 5))
     with pytest.raises(
         ValueError,
-        match=re.escape("`shape` asks for 1099511627776 array elements, more than the limit"),
+        match=re.escape("`shape` asks for 1099511627776 array elements, more than gfxlab's limit"),
     ):
         viewing.ndc_to_pixels(points, (2**20, 2**20))
     with pytest.raises(ValueError, match=re.escape("`shape` must be an image shape (H, W)")):
@@ -275,7 +275,8 @@ def test_static_shape_and_allocation_limit():
     with pytest.raises(
         ValueError,
         match=re.escape(
-            "`size` asks for 209715200 array elements, more than the limit of 134217728"
+            "`size` asks for 209715200 array elements, more than gfxlab's limit of "
+            "134217728 per array (1 GiB of float64): ask for less, or work in pieces"
         ),
     ):
         jpeg.blocks(jnp.ones((200, 1, 1)), size=1024)
