@@ -18,6 +18,8 @@ import signal
 import sys
 import time
 
+from ._args import module_names, path_arg, positive_int
+
 _HERE = pathlib.Path(__file__).resolve().parent
 _PACKAGE = _HERE.parent  # the gfxlab package directory
 _PACKAGE_TARGET = "/opt/gfxlab"  # where gfxlab appears in the sandbox when bound apart
@@ -77,6 +79,12 @@ def _has_controllers(group: pathlib.Path) -> bool:
     return (group / "memory.max").exists() and (group / "pids.max").exists()
 
 
+def _is_cgroup2(group: pathlib.Path) -> bool:
+    """Is `group` a cgroup v2 group (the kernel's `cgroup.controllers` and `cgroup.procs`
+    in it; a plain folder, or cgroup v1's tmpfs at /sys/fs/cgroup, has neither)?"""
+    return (group / "cgroup.controllers").exists() and (group / "cgroup.procs").exists()
+
+
 def cgroup_parent(
     root: str = "/sys/fs/cgroup", self_cgroup: str = "/proc/self/cgroup"
 ) -> str | None:
@@ -98,7 +106,8 @@ def cgroup_parent(
     **Returns:** the path of `gfxlab-grading`, or None when anything of this is missing or
     refused (then rlimits and the grader's own watch bound a submission).
     """
-    top = pathlib.Path(root)
+    top = pathlib.Path(path_arg(root, "root"))
+    self_cgroup = path_arg(self_cgroup, "self_cgroup")
     try:
         line = next(
             ln for ln in pathlib.Path(self_cgroup).read_text().splitlines() if ln.startswith("0::")
@@ -132,24 +141,43 @@ def make_cgroup(parent: str, name: str, *, memory_bytes: int, processes: int) ->
 
     **Arguments:**
 
-    - `parent`: a delegated group (`cgroup_parent`).
-    - `name`: the new group's folder name.
+    - `parent`: a delegated cgroup v2 group (`cgroup_parent`).
+    - `name`: the new group's folder name (one path component).
     - `memory_bytes`: `memory.max` (and `memory.swap.max` 0, where swap is accounted).
     - `processes`: `pids.max`, the most tasks of the group.
 
     `cpu.max` is one core.
 
-    **Returns:** the group's path, or None when the kernel refuses any of it (a group made
-    without the memory and pids controllers is removed again).
+    **Returns:** the group's path, or None when `parent` is not a cgroup v2 group (a plain
+    folder: nothing is made) or the kernel refuses any of it (a folder the kernel did not
+    fill with `cgroup.procs`, or a group without the memory and pids controllers, is
+    removed again).
+
+    **Raises:** `TypeError` or `ValueError` for a wrong argument, before anything is made.
     """
+    parent = path_arg(parent, "parent")
+    if not isinstance(name, str):
+        raise TypeError(f"`name` must be a folder name (str), got {name!r:.60}")
+    if name in ("", ".", "..") or "/" in name or "\0" in name:
+        raise ValueError(f"`name` must be one non-empty path component, got {name!r:.60}")
+    memory_bytes = positive_int(memory_bytes, "memory_bytes")
+    processes = positive_int(processes, "processes")
+    if not _is_cgroup2(pathlib.Path(parent)):
+        return None
     path = pathlib.Path(parent, name)
     try:
         _cgroup_mkdir(path)
     except OSError:
         return None
+    if not (path / "cgroup.procs").exists():  # not cgroupfs after all: undo the mkdir
+        try:
+            _cgroup_rmdir(path)
+        except OSError:
+            pass
+        return None
     try:
-        (path / "memory.max").write_text(str(int(memory_bytes)))
-        (path / "pids.max").write_text(str(int(processes)))
+        (path / "memory.max").write_text(str(memory_bytes))
+        (path / "pids.max").write_text(str(processes))
         (path / "cpu.max").write_text("100000 100000")  # one core
         if not _has_controllers(path):
             raise OSError("the memory and pids controllers are not enabled")
@@ -172,6 +200,7 @@ def cgroup_members(path: str) -> list[int]:
 
     **Returns:** the process ids of its `cgroup.procs` (an empty list if it is unreadable).
     """
+    path = path_arg(path, "path")
     try:
         return [int(x) for x in pathlib.Path(path, "cgroup.procs").read_text().split()]
     except (OSError, ValueError):
@@ -263,12 +292,15 @@ def expand_forbidden(modules) -> list[str]:
 
     **Arguments:**
 
-    - `modules`: module names (`"scipy.fft"`, `"gfxlab"`).
+    - `modules`: a list or tuple of dotted module names (`["scipy.fft", "gfxlab"]`).
 
     **Returns:** the module names, without repeats, `ALWAYS_FORBIDDEN` first.
+
+    **Raises:** `TypeError` for a string alone (it would stand for its characters) or a
+    name that is not a string; `ValueError` for an empty or non-dotted name.
     """
     out = list(ALWAYS_FORBIDDEN)
-    for module in modules:
+    for module in module_names(modules, "modules"):
         if module != "gfxlab":
             out.append(module)
             continue
@@ -289,16 +321,18 @@ def forbidden_files(modules) -> list[tuple[str, bool]]:
 
     **Arguments:**
 
-    - `modules`: module names, as `expand_forbidden` returns them.
+    - `modules`: a list or tuple of module names, as `expand_forbidden` returns them.
 
     **Returns:** `(real path, is a directory)` pairs; modules not installed give none.
+
+    **Raises:** `TypeError`/`ValueError` as `expand_forbidden`.
     """
     out = []
-    for module in modules:
-        spec = _locate(str(module))
+    for module in module_names(modules, "modules"):
+        spec = _locate(module)
         if spec is None or not spec.origin or not os.path.exists(spec.origin):
             continue
-        if "." not in str(module):  # the native libraries its wheel ships (`shapely.libs`)
+        if "." not in module:  # the native libraries its wheel ships (`shapely.libs`)
             out.extend((libs, True) for libs in _wheel_libs(str(module), spec))
         if spec.submodule_search_locations:
             for location in spec.submodule_search_locations:
@@ -421,6 +455,7 @@ def cgroup_cpu_seconds(path: str) -> float | None:
 
     **Returns:** CPU seconds (`usage_usec` of its `cpu.stat`), or None if unreadable.
     """
+    path = path_arg(path, "path")
     try:
         for line in pathlib.Path(path, "cpu.stat").read_text().splitlines():
             key, _, value = line.partition(" ")
@@ -442,17 +477,30 @@ def remove_cgroup(path: str) -> None:
     """Kill a group's processes (`cgroup.kill`) and remove the group, retrying for up to
     a second while they exit; a group that stays (still busy) is left in place.
 
+    Only a cgroup v2 group (one with the kernel's `cgroup.procs`) is touched: a path that
+    no longer exists (a group already removed) is left alone.
+
     **Arguments:**
 
     - `path`: the group's directory.
+
+    **Raises:** `TypeError` when `path` is not a path; `ValueError` when it is an existing
+    folder or file that is not a cgroup v2 group (nothing is written into it).
     """
+    group = pathlib.Path(path_arg(path, "path"))
+    if not (group / "cgroup.procs").exists():
+        if os.path.lexists(group):
+            raise ValueError(
+                f"`path` {str(group)!r:.200} is not a cgroup v2 group (no cgroup.procs)"
+            )
+        return
     try:
-        pathlib.Path(path, "cgroup.kill").write_text("1")
+        (group / "cgroup.kill").write_text("1")
     except OSError:
         pass
     for _ in range(50):
         try:
-            _cgroup_rmdir(path)
+            _cgroup_rmdir(group)
             return
         except OSError:
             time.sleep(0.02)

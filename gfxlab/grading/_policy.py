@@ -116,12 +116,20 @@ class Protections:
             "uts and cgroup namespaces, new session, empty environment, dies with the grader",
             f"runs as {who}",
             f"resource limits: {applied or self.limits_kind}",
-            "seccomp: memfd_create (memory no limit would count), ptrace and "
-            "process_vm_writev (writing into other processes) refused"
-            if os.uname().machine in SECCOMP_RULES
-            else "seccomp: none for this architecture (memfd memory counts only in a cgroup)",
+            _seccomp_line(os.uname().machine),
             "plain-data RPC over a dedicated pipe, strict decoder, per-request random id",
         ]
+
+
+def _seccomp_line(machine: str) -> str:
+    """The seccomp layer in words, from `SECCOMP_RULES` itself (so the two agree)."""
+    if machine not in SECCOMP_RULES:
+        return "seccomp: none for this architecture (memfd memory counts only in a cgroup)"
+    names = ", ".join(SECCOMP_RULES[machine][1])
+    return (
+        f"seccomp: {names} refused (memory no limit would count, writing into other "
+        "processes), as are other architectures and the x32 ABI"
+    )
 
 
 _ENABLE = (
@@ -155,13 +163,23 @@ def seccomp_program(machine: str | None = None) -> bytes | None:
 
     **Arguments:**
 
-    - `machine`: an architecture of `SECCOMP_RULES`; None: this machine's (`os.uname`).
+    - `machine`: an architecture name as `os.uname().machine` gives it (`"x86_64"`, a key
+      of `SECCOMP_RULES`); None: this machine's.
 
     **Returns:** the program (8-byte `sock_filter` instructions) that refuses the rules'
     system calls, any other architecture and the x32 ABI with EPERM and allows the rest;
-    None where the architecture is not known (no filter: the result says so).
+    None where the architecture is not in `SECCOMP_RULES` (no filter: the result says so).
+
+    **Raises:** `TypeError` when `machine` is neither a string nor None; `ValueError` for
+    an empty string.
     """
-    arch = SECCOMP_RULES.get(machine or os.uname().machine)
+    if machine is not None and not isinstance(machine, str):
+        raise TypeError(
+            f"`machine` must be an architecture name (str) or None, got {machine!r:.60}"
+        )
+    if machine == "":
+        raise ValueError("`machine` must be an architecture name such as 'x86_64', or None")
+    arch = SECCOMP_RULES.get(os.uname().machine if machine is None else machine)
     if arch is None:
         return None
     audit, refused = arch

@@ -31,6 +31,8 @@ import json
 import re
 import uuid
 
+from ._args import module_names
+
 _BEGIN_Q = re.compile(r"^\s*(?:#|<!--)\s*BEGIN\s+QUESTION\s*(?:-->)?\s*$", re.I)
 _END_Q = re.compile(r"^\s*(?:#|<!--)\s*END\s+QUESTION\s*(?:-->)?\s*$", re.I)
 _MARK = r"^\s*#\s*{}\s+{}\b.*$"
@@ -458,15 +460,13 @@ def _x64_cell(config: dict) -> dict | None:
     """JAX assignments: the notebook computes in float64, as the grader does."""
     if "jax" not in config.get("preload", []) or not config.get("x64", True):
         return None
-    source = (
-        "# The grader runs JAX in float64; so does this notebook.\n"
-        'import jax\n\njax.config.update("jax_enable_x64", True)'
-    )
+    source = "# The grader runs JAX in float64; so does this notebook.\nimport jax\n\n"
+    source += 'jax.config.update("jax_enable_x64", True)'
     return new_cell("code", source, {"gfxlab": {"setup": True}})
 
 
 def _forbid_cell(config: dict) -> dict | None:
-    forbid = config.get("forbid") or []
+    forbid = module_names(config.get("forbid") or [], "forbid")  # a str alone: TypeError
     separate = config.get("separate") or {}
     if not forbid and not separate:
         return None

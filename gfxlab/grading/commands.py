@@ -25,6 +25,7 @@ import tempfile
 import time
 
 from . import authoring, mutants
+from ._args import flag, limits_arg, path_arg, positive_int, positive_number
 from ._bounds import HARD_MARGIN_SECONDS
 from .grader import Autograder, GradeResult, QuestionResult, TestResult, _bounded
 from .sandbox import detect_protections, require_confinement
@@ -389,12 +390,18 @@ def run_pool(tasks, jobs: int, hard_limit: float, *, grade=None) -> list:
     (and replacing) one that runs past `hard_limit` seconds on a task, whatever happens
     in it, while the rest go on.
 
+    The grader processes are *spawned* (fresh interpreters that import the calling
+    script's main module): a script that calls `run_pool` (or `grade_many`) must do so
+    under `if __name__ == "__main__":`, or each process would run the script again.
+
     **Arguments:**
 
-    - `tasks`: one tuple per submission, `(autograder folder, notebook path, label,
-      Limits or None, whether a spare sandbox should start for the next one)`.
-    - `jobs`: grader processes (at most one per task).
-    - `hard_limit`: wall seconds one task may take in its process.
+    - `tasks`: a list or tuple with one tuple per submission, `(autograder folder,
+      notebook path, label, overrides of the limits: None, a dict or a Limits, whether a
+      spare sandbox should start for the next one: True or False)`; with `grade`, tuples
+      whose third item is the label (a str), the rest as `grade` takes them.
+    - `jobs`: grader processes (a positive int; at most one per task).
+    - `hard_limit`: wall seconds one task may take in its process (a positive number).
     - `grade`: the function a process applies to a task (default: grade the notebook
       with the autograder); a picklable top-level function, since the processes are
       spawned.
@@ -402,10 +409,12 @@ def run_pool(tasks, jobs: int, hard_limit: float, *, grade=None) -> list:
     **Returns:** the results of `grade`, in the order of `tasks`; a task that was stopped
     or whose process died gets a `GradeResult` whose `error` says so.
 
-    **Raises:** `RuntimeError` when a grader process does not start within
-    `STARTUP_SECONDS`.
+    **Raises:** `TypeError`/`ValueError` naming a wrong argument, before any process
+    starts; `RuntimeError` when a grader process does not start within `STARTUP_SECONDS`.
     """
     from multiprocessing.connection import wait
+
+    _check_pool_args(tasks, jobs, hard_limit, grade)
 
     context = multiprocessing.get_context("spawn")
     results: list = [None] * len(tasks)
@@ -453,6 +462,28 @@ def run_pool(tasks, jobs: int, hard_limit: float, *, grade=None) -> list:
                 w.kill()
             w.remove_scratch()
     return results
+
+
+def _check_pool_args(tasks, jobs, hard_limit, grade) -> None:
+    """`run_pool`'s arguments as its docstring says, or `TypeError`/`ValueError`."""
+    positive_int(jobs, "jobs")
+    positive_number(hard_limit, "hard_limit")
+    if grade is not None and not callable(grade):
+        raise TypeError(f"`grade` must be a function or None, got {grade!r:.60}")
+    if not isinstance(tasks, list | tuple):
+        raise TypeError(f"`tasks` must be a list or tuple of task tuples, got {tasks!r:.60}")
+    exact = grade is None  # the default `grade` takes the documented 5-tuples
+    for i, task in enumerate(tasks):
+        if not isinstance(task, tuple) or (len(task) != 5 if exact else len(task) < 3):
+            size = "5" if exact else "at least 3"
+            raise TypeError(f"`tasks[{i}]` must be a tuple of {size} items, got {task!r:.80}")
+        if not isinstance(task[2], str):
+            raise TypeError(f"`tasks[{i}]`: the label (item 2) must be a str, got {task[2]!r:.60}")
+        if exact:
+            path_arg(task[0], f"tasks[{i}][0] (the autograder folder)")
+            path_arg(task[1], f"tasks[{i}][1] (the notebook)")
+            limits_arg(task[3], f"tasks[{i}][3] (the limits)", overrides=True)
+            flag(task[4], f"tasks[{i}][4] (start a spare sandbox)")
 
 
 def _grader_error(task, text):

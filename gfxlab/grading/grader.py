@@ -26,6 +26,7 @@ import traceback
 import numpy as np
 
 from . import authoring, reuse
+from ._args import flag, limits_arg, module_names, read_config, run_test_args
 from ._bounds import (
     _NO_DEADLINE,
     HARD_MARGIN_SECONDS,
@@ -315,15 +316,16 @@ class Autograder:
         - `directory`: the autograder directory (a path); it must hold `config.json`
           (`FileNotFoundError` otherwise) and `tests/<question>.py` for each question.
         - `warm`: keep one spare sandbox launched ahead of the next submission (the first
-          one now); default `False`.
+          one now): True or False; default `False`.
         - `limits`: overrides of the config's limits (a dict or a `Limits`) for that spare
           sandbox; only used with `warm`.
+
+        **Raises:** `ValueError` naming `config.json` and a missing key; `TypeError` for a
+        `warm` other than True or False, or `limits` other than None, a dict or a `Limits`.
         """
+        warm, limits = flag(warm, "warm"), limits_arg(limits, "limits", overrides=True)
         directory = pathlib.Path(directory).resolve()
-        config_path = directory / "config.json"
-        if not config_path.is_file():
-            raise FileNotFoundError(f"{config_path} not found: is this an autograder directory?")
-        self._initialise(directory, json.loads(config_path.read_text()), warm=warm, limits=limits)
+        self._initialise(directory, read_config(directory), warm=warm, limits=limits)
 
     @classmethod
     def without_tests(cls, directory, *, assignment: str, preload, forbid) -> Autograder:
@@ -333,8 +335,8 @@ class Autograder:
         grader = cls.__new__(cls)
         config = {
             "assignment": str(assignment),
-            "preload": list(preload),
-            "forbid": list(forbid),
+            "preload": list(module_names(preload, "preload")),
+            "forbid": list(module_names(forbid, "forbid")),
             "questions": [],
         }
         grader._initialise(pathlib.Path(directory).resolve(), config, warm=False, limits=None)
@@ -375,7 +377,7 @@ class Autograder:
 
     def limits(self, overrides: dict | Limits | None = None) -> Limits:
         """The assignment's limits (config `limits`), with `overrides` (dict or `Limits`)."""
-        if isinstance(overrides, Limits):
+        if isinstance(limits_arg(overrides, "limits", overrides=True), Limits):
             return overrides
         values = {**self.config.get("limits", {}), **(overrides or {})}
         return dataclasses.replace(Limits(), **values)
@@ -389,7 +391,7 @@ class Autograder:
     def _sandbox_options(self) -> dict:
         return dict(
             preload=tuple(self.config.get("preload", ["numpy"])),
-            x64=bool(self.config.get("x64", True)),
+            x64=self.config.get("x64", True),
             forbid=tuple(self.config.get("forbid", [])),
         )
 
@@ -491,15 +493,8 @@ class Autograder:
         for spec in tests:
             missing = [p for p in spec.params if not present.get(p, False)]
             if missing:
-                out.append(
-                    TestResult(
-                        spec.name,
-                        spec.hidden,
-                        False,
-                        spec.weight,
-                        f"`{missing[0]}` is not defined as a function",
-                    )
-                )
+                message = f"`{missing[0]}` is not defined as a function"
+                out.append(TestResult(spec.name, spec.hidden, False, spec.weight, message))
                 continue
             if spec.hidden:  # from now on, replays show no student text (see _ensure)
                 session.hidden_started = True
@@ -512,8 +507,9 @@ class Autograder:
         `rename` maps a parameter to another function name) under the CPU deadline
         `config["test_cpu_seconds"]`: a test the student's data makes slow here (e.g.
         colliding hashes in its own sets) fails as "timed out". **Returns:** the
-        `TestResult` (a bounded message; for a hidden test, the kind of failure only)."""
-        rename = rename or {}
+        `TestResult` (a bounded message; for a hidden test, the kind of failure only).
+        **Raises:** `TypeError` for a wrong argument (before anything runs)."""
+        rename = run_test_args(test, spec, session, rename)
         seconds = float(self.config.get("test_cpu_seconds", TEST_CPU_SECONDS))
         try:
             with _CpuDeadline(seconds) as deadline:
@@ -568,14 +564,15 @@ def grade_one(directory, submission, *, limits=None, warm=True) -> GradeResult:
     the hard limit (`Autograder.hard_limit`): a submission whose data makes the grader's
     own code slow gets a bounded grader-error result, never a grader that runs forever.
 
-    With `warm` the child starts its sandbox while the tests load (`Autograder(warm=True)`).
-    `IsolationUnavailable` and other grader failures in the child are raised here.
+    With `warm` the child starts its sandbox while the tests load (`Autograder(warm=True)`);
+    `limits` are overrides as for `Autograder` (None, a dict or a `Limits`).
+    `IsolationUnavailable` and other grader failures in the child are raised here; a wrong
+    argument or autograder directory as by `Autograder`, before the child starts.
     """
-    if not isinstance(warm, bool):
-        raise TypeError(f"`warm` must be True or False, got {warm!r:.40}")
+    warm, limits = flag(warm, "warm"), limits_arg(limits, "limits", overrides=True)
     # No tests load here before the fork (a test file could start JAX's threads).
     light = Autograder.without_tests(directory, assignment="", preload=(), forbid=())
-    light.config = json.loads((light.directory / "config.json").read_text())
+    light.config = read_config(light.directory)
     label = _bounded(pathlib.Path(submission).name, 200)
 
     def work():

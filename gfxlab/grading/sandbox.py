@@ -37,6 +37,7 @@ import tempfile
 import time
 
 from . import codec
+from ._args import flag, limits_arg, module_names
 from ._host import (
     _MEMORY_POLL,
     _PACKAGE,
@@ -62,6 +63,7 @@ from ._host import (
     remove_cgroup,
     sandbox_path,
 )
+from ._host import ALWAYS_FORBIDDEN as ALWAYS_FORBIDDEN  # public here: hidden in every sandbox
 from ._policy import (
     _ENABLE,
     IsolationUnavailable,
@@ -70,9 +72,7 @@ from ._policy import (
     limits_kind,
     seccomp_program,
 )
-from ._policy import (
-    SECCOMP_RULES as SECCOMP_RULES,  # public here: what `seccomp_program` refuses
-)
+from ._policy import SECCOMP_RULES as SECCOMP_RULES  # what `seccomp_program` refuses
 
 
 @functools.cache
@@ -168,22 +168,24 @@ class Sandbox:
     ):
         """**Arguments:**
 
-        - `limits`: a `Limits`; default `Limits()`.
+        - `limits`: a `Limits` (not a dict); default `Limits()`.
         - `preload`: modules the worker imports before any student code; default
           `("numpy",)`.
-        - `x64`: enable float64 in JAX (`JAX_ENABLE_X64`) in the student process; default
-          `True`.
-        - `forbid`: modules the student may not import (dotted names; a package forbids its
+        - `x64`: float64 in JAX (`JAX_ENABLE_X64`) in the student process; default `True`.
+        - `forbid`: modules the student may not import (a list or tuple of dotted names; a
+          package forbids its
           submodules, and `"gfxlab"` every gfxlab module but `gfxlab.grading`): inside the
           sandbox they are stubs raising `ImportError`; default none.
         - `protections`: how to isolate the process; default `detect_protections()` (this
           machine, probed once per grader process).
+
+        **Raises:** `TypeError`/`ValueError` naming a wrong argument.
         """
-        self.limits = limits
+        self.limits = limits_arg(limits, "limits")
+        self.preload = module_names(preload, "preload")
+        self.x64 = flag(x64, "x64")
+        self.forbid = tuple(expand_forbidden(module_names(forbid, "forbid")))
         self.protections = protections or detect_protections()
-        self.preload = tuple(preload)
-        self.x64 = x64
-        self.forbid = tuple(expand_forbidden(forbid))
         self.proc: subprocess.Popen | None = None
         self.workdir: str | None = None
         self.uid: int | None = None
@@ -191,6 +193,7 @@ class Sandbox:
         self._memory_checked = 0.0
         self._ready = False
         self._cpu_limit: tuple[float, float] | None = None
+        self._cpu_at_close = 0.0  # the last reading, kept by `close`
         self.applied: set[str] = set()  # the resource limits each start really got
 
     @property
@@ -340,7 +343,7 @@ class Sandbox:
         graded) has run nothing but its preloads: it is as fresh as one started later.
         """
         self.close()
-        self._ready = False
+        self._ready, self._cpu_at_close = False, 0.0
         prot = self.protections
         if prot.bwrap is None:
             raise Crash(f"the sandbox cannot start: {prot.problem}")
@@ -505,13 +508,13 @@ class Sandbox:
     def cpu_seconds(self) -> float:
         """CPU seconds used so far by the submission's processes: its cgroup's account
         where it has one (`cgroup_cpu_seconds`), else the process tree's from /proc; 0
-        before it starts."""
+        before it starts; after `close`, the reading taken as it stopped the processes."""
         if self.cgroup:
             seconds = cgroup_cpu_seconds(self.cgroup)
             if seconds is not None:
                 return seconds
         if self.proc is None:
-            return 0.0
+            return self._cpu_at_close
         return _tree_usage(self.proc.pid)[1]
 
     def _check_usage(self, force: bool = False) -> None:
@@ -561,7 +564,10 @@ class Sandbox:
         return f"the student process exited (status {code})"
 
     def close(self) -> None:
-        """Kill the student process, every process it started, and remove its files."""
+        """Kill the student process, every process it started, and remove its files;
+        `cpu_seconds` keeps reporting the CPU time they used."""
+        if self.proc is not None:
+            self._cpu_at_close = self.cpu_seconds()
         proc, self.proc = self.proc, None
         self._ready = False
         if proc is not None:
