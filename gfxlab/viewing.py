@@ -199,7 +199,28 @@ def _perspective(fov_y, aspect, near, far):
 def project(
     matrix: Float[Array, "4 4"], points: Float[Array, "*batch N 3"]
 ) -> Float[Array, "*batch N 3"]:
-    """Project 3D points to normalised device coordinates (with the perspective divide)."""
+    """Project 3D points to normalised device coordinates (with the perspective divide).
+
+    **Arguments:**
+
+    - `matrix`: a `(4, 4)` projection (or projection times view) matrix, e.g.
+      `perspective(...) @ look_at(...)`; a batch `(*batch, 4, 4)` projects per batch.
+    - `points`: `(*batch, N, 3)` 3D points.
+
+    **Returns:** `(*batch, N, 3)` NDC points; inside the view volume they lie in
+    `[-1, 1]^3` (`in_view_volume`).
+
+    **Raises:** `ValueError` for a matrix that is not 4x4, points that are not 3D, or
+    values that are not finite.
+    """
+    matrix = finite_float(matrix, "matrix")
+    if matrix.ndim < 2 or matrix.shape[-2:] != (4, 4):
+        raise ValueError(
+            f"`matrix` must be a 4x4 projection matrix (shape (..., 4, 4)), got shape "
+            f"{tuple(matrix.shape)}"
+        )
+    points = finite_float(points, "points")
+    check_last_dim(points, "points", (3,), "3D points")
     return tf.apply(matrix, points)
 
 

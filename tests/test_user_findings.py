@@ -229,3 +229,17 @@ def test_decode_takes_a_uint8_array_of_the_file():
     np.testing.assert_array_equal(jpeg.decode(np.frombuffer(data, np.uint8)), jpeg.decode(data))
     with pytest.raises(TypeError, match="`data` must be bytes"):
         jpeg.decode(np.frombuffer(data, np.uint8).astype(np.int16))
+
+
+def test_project_takes_a_4x4_matrix_and_3d_points():
+    from gfxlab import viewing
+
+    with pytest.raises(ValueError, match=r"`matrix` must be a 4x4 projection matrix"):
+        viewing.project(jnp.eye(3), jnp.ones((2, 2)))  # a 2D homogeneous matrix
+    with pytest.raises(ValueError, match=r"`points` must have shape \(\.\.\., 3\)"):
+        viewing.project(jnp.eye(4), jnp.ones((2, 2)))
+    m = viewing.perspective(1.0, 1.5, 0.1, 10.0) @ viewing.look_at(
+        jnp.array([0.0, 0.0, 5.0]), jnp.zeros(3), jnp.array([0.0, 1.0, 0.0])
+    )
+    points = jnp.array([[0.1, 0.2, 0.3], [-1.0, 0.5, 2.0]])
+    np.testing.assert_allclose(viewing.project(m, points), jax.jit(viewing.project)(m, points))
