@@ -43,6 +43,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._plain_args import flag
+
 # Safe math lives in `_safe_math`; the checks' users import it from here too.
 from ._safe_math import safe_divide as safe_divide
 from ._safe_math import safe_norm as safe_norm
@@ -292,12 +294,9 @@ def static_int(value, name: str, *, minimum: int | None = None, maximum: int | N
     return value
 
 
-def static_bool(value, name: str) -> bool:
-    """`value` as a Python bool: `True`/`False` (or a NumPy bool) only, since `bool("no")`
-    would be `True`. Raises `TypeError` naming `name` otherwise."""
-    if not isinstance(value, bool | np.bool_):
-        raise TypeError(f"`{name}` must be True or False, got {value!r:.60}")
-    return bool(value)
+#: A flag's check (`True`/`False` or a NumPy bool; `bool("no")` would be True), the one
+#: `gfxlab._plain_args` owns for the JAX-free modules too.
+static_bool = flag
 
 
 def static_shape(shape, name: str = "shape") -> tuple[int, int]:

@@ -43,6 +43,8 @@ import sys
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
+from ._plain_args import flag, positive_number
+
 __all__ = [
     "interact",
     "headless",
@@ -319,20 +321,9 @@ def lab_title(path: pathlib.Path | str) -> str:
     return _runner.lab_title(_check_notebook(path))
 
 
-def _check_flag(value, name: str) -> bool:
-    """`value` if it is `True` or `False` (`bool("no")` is True: refuse anything else)."""
-    if not isinstance(value, bool):
-        raise TypeError(f"`{name}` must be True or False, got {value!r:.60}")
-    return value
-
-
 def _check_timeout(timeout) -> float:
     """`timeout` as seconds per cell: a positive, finite number (not a bool)."""
-    if isinstance(timeout, bool) or not isinstance(timeout, int | float):
-        raise TypeError(f"`timeout` must be a number of seconds, got {timeout!r:.60}")
-    if not 0 < timeout < float("inf"):
-        raise ValueError(f"`timeout` must be a positive, finite number of seconds, got {timeout!r}")
-    return float(timeout)
+    return positive_number(timeout, "timeout", what="number of seconds")
 
 
 def run_lab(
@@ -368,7 +359,7 @@ def run_lab(
         _check_notebook(path),
         out_dir,
         timeout=_check_timeout(timeout),
-        cache=_check_flag(cache, "cache"),
+        cache=flag(cache, "cache"),
     )
 
 
@@ -420,7 +411,7 @@ def run_all(
     """
     from . import _runner
 
-    timeout, cache = _check_timeout(timeout), _check_flag(cache, "cache")
+    timeout, cache = _check_timeout(timeout), flag(cache, "cache")
     if log is not None and not callable(log):
         raise TypeError(f"`log` must be a function of a LabRun or None, got {type(log).__name__}")
     if labs is not None:  # every notebook checked before the first kernel starts
@@ -472,4 +463,4 @@ def kernel_env(*, cache: bool = True) -> dict[str, str]:
     """
     from . import _runner
 
-    return _runner.kernel_env(cache=_check_flag(cache, "cache"))
+    return _runner.kernel_env(cache=flag(cache, "cache"))

@@ -8,50 +8,11 @@ the argument and what it takes. `read_config` reads an autograder's `config.json
 from __future__ import annotations
 
 import json
-import math
-import os
 import pathlib
 
+from .._plain_args import flag as flag  # re-exported: the grading modules' one import
+from .._plain_args import shown as _shown
 from ._policy import Limits
-
-
-def _shown(value) -> str:
-    return f"{value!r:.60}"
-
-
-def flag(value, name: str) -> bool:
-    """`value` if it is True or False (not merely truthy), else `TypeError`."""
-    if not isinstance(value, bool):
-        raise TypeError(f"`{name}` must be True or False, got {_shown(value)}")
-    return value
-
-
-def path_arg(value, name: str) -> str:
-    """`value` as a string path: a `str` or an `os.PathLike`, else `TypeError`."""
-    if not isinstance(value, str | os.PathLike) or isinstance(value, bytes):
-        raise TypeError(f"`{name}` must be a path (str or os.PathLike), got {_shown(value)}")
-    path = os.fspath(value)
-    if not isinstance(path, str):
-        raise TypeError(f"`{name}` must be a str path, got {_shown(path)}")
-    return path
-
-
-def positive_int(value, name: str) -> int:
-    """`value` if it is an int above 0 (a bool is not), else `TypeError`/`ValueError`."""
-    if not isinstance(value, int) or isinstance(value, bool):
-        raise TypeError(f"`{name}` must be a positive int, got {_shown(value)}")
-    if value <= 0:
-        raise ValueError(f"`{name}` must be a positive int, got {value}")
-    return value
-
-
-def positive_number(value, name: str) -> float:
-    """`value` if it is a finite int or float above 0 (a bool is not)."""
-    if not isinstance(value, int | float) or isinstance(value, bool):
-        raise TypeError(f"`{name}` must be a positive number, got {_shown(value)}")
-    if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"`{name}` must be a positive finite number, got {value}")
-    return float(value)
 
 
 def module_names(value, name: str) -> tuple[str, ...]:

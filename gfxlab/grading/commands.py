@@ -24,8 +24,9 @@ import sys
 import tempfile
 import time
 
+from .._plain_args import flag, path_arg, positive_int, positive_number
 from . import authoring, mutants
-from ._args import flag, limits_arg, path_arg, positive_int, positive_number
+from ._args import limits_arg
 from ._bounds import HARD_MARGIN_SECONDS
 from .grader import Autograder, GradeResult, QuestionResult, TestResult, _bounded
 from .sandbox import detect_protections, require_confinement
