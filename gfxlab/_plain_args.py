@@ -17,13 +17,17 @@ def shown(value) -> str:
     return f"{value!r:.60}"
 
 
-def flag(value, name: str) -> bool:
+def flag(value, name: str, *, optional: bool = False) -> bool | None:
     """`value` as a bool if it is `True`/`False` (or a NumPy bool), else `TypeError`:
-    `bool("no")` is True, so merely truthy values are refused."""
+    `bool("no")` is True, so merely truthy values are refused. With `optional`, `None`
+    passes too (a choice left to the function)."""
+    if optional and value is None:
+        return None
     numpy = sys.modules.get("numpy")  # a NumPy bool counts; NumPy is not imported for it
     if isinstance(value, bool) or (numpy is not None and isinstance(value, numpy.bool_)):
         return bool(value)
-    raise TypeError(f"`{name}` must be True or False, got {shown(value)}")
+    choices = "True, False or None" if optional else "True or False"
+    raise TypeError(f"`{name}` must be {choices}, got {shown(value)}")
 
 
 def path_arg(value, name: str) -> str:

@@ -118,8 +118,8 @@ def read_notebook(path: pathlib.Path):
 
     try:
         return nbformat.read(path, as_version=4)
-    except (ValueError, nbformat.reader.NotJSONError, nbformat.ValidationError) as err:
-        first = str(err).strip().splitlines()[0][:200] if str(err).strip() else type(err).__name__
+    except (ValueError, nbformat.ValidationError) as err:  # NotJSONError is a ValueError
+        first = (str(err).strip().splitlines() or [type(err).__name__])[0][:200]
         raise ValueError(f"`path` {str(path)!r} is not a readable notebook: {first}") from None
 
 

@@ -170,7 +170,7 @@ def make_cgroup(parent: str, name: str, *, memory_bytes: int, processes: int) ->
         _cgroup_mkdir(path)
     except OSError:
         return None
-    if not (path / "cgroup.procs").exists():  # not cgroupfs after all: undo the mkdir
+    if not _is_cgroup2(path):  # not cgroupfs after all: undo the mkdir
         try:
             _cgroup_rmdir(path)
         except OSError:
@@ -478,7 +478,8 @@ def remove_cgroup(path: str) -> None:
     """Kill a group's processes (`cgroup.kill`) and remove the group, retrying for up to
     a second while they exit; a group that stays (still busy) is left in place.
 
-    Only a cgroup v2 group (one with the kernel's `cgroup.procs`) is touched: a path that
+    Only a cgroup v2 group (one with the kernel's `cgroup.controllers` and `cgroup.procs`)
+    is touched: a path that
     no longer exists (a group already removed) is left alone.
 
     **Arguments:**
@@ -489,10 +490,11 @@ def remove_cgroup(path: str) -> None:
     folder or file that is not a cgroup v2 group (nothing is written into it).
     """
     group = pathlib.Path(path_arg(path, "path"))
-    if not (group / "cgroup.procs").exists():
+    if not _is_cgroup2(group):
         if os.path.lexists(group):
             raise ValueError(
-                f"`path` {str(group)!r:.200} is not a cgroup v2 group (no cgroup.procs)"
+                f"`path` {str(group)!r:.200} is not a cgroup v2 group "
+                "(no cgroup.procs or cgroup.controllers)"
             )
         return
     try:

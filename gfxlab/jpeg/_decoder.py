@@ -23,6 +23,7 @@ import warnings
 
 import numpy as np
 
+from gfxlab._plain_args import flag
 from gfxlab.jpeg import _libjpeg as L
 from gfxlab.jpeg._entropy import HuffmanTable, JPEGError, decode_scan
 from gfxlab.jpeg._tables import ZIGZAG
@@ -384,9 +385,7 @@ def _compiled_finish(geometry):
 
 def check_compiled(compiled) -> bool | None:
     """The `compiled` option of `encode` and `decode`: True, False or None."""
-    if compiled is not None and not isinstance(compiled, bool | np.bool_):
-        raise TypeError(f"`compiled` must be True, False or None, got {compiled!r:.60}")
-    return None if compiled is None else bool(compiled)
+    return flag(compiled, "compiled", optional=True)
 
 
 def decode(
