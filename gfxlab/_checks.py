@@ -353,6 +353,14 @@ def value_error_if(x, bad, message: str):
     return eqx.error_if(x, bad, message)
 
 
+def attach_check(x, bad, message: str):
+    """Inside a jitted function: `x` after `value_error_if(..., bad, message)`, with the
+    check attached to a scalar `1` that multiplies `x` (exact), so that it costs one
+    fused reduction of `bad`, not a copy of `x` through a conditional."""
+    one = value_error_if(jnp.ones((), x.dtype), jnp.any(bad), message)
+    return x * one
+
+
 # A JAX user context, so that jitted functions traced inside `trusted_values` are cached
 # apart from their checked traces (a later call from a user's `jit` still checks). A JAX
 # without user contexts keeps every check.

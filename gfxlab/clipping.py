@@ -57,6 +57,7 @@ from ._checks import (
     check_rect,
     check_shape,
     common_finite,
+    common_float,
     finite_float,
     static_int,
     value_error_if,
@@ -117,6 +118,7 @@ def _window(window) -> jax.Array:
 
 
 def _check_segments(segments) -> jax.Array:
+    """Finite `(..., 2, 2)` segments (callers check the window with `_window`)."""
     segments = finite_float(segments, "segments")
     check_shape(segments, "segments", (..., 2, 2))
     return segments
@@ -220,7 +222,7 @@ def cohen_sutherland(
     `(...)` boolean: `False` for a rejected segment. A trivially accepted segment comes
     back unchanged. Differentiable in the segments and the window.
     """
-    segments, window = common_finite(segments, window, names=("segments", "window"))
+    segments, window = common_float(segments, window, names=("segments", "window"))
     segments = _check_segments(segments)
     return _cohen_sutherland(segments, _window(window))
 
@@ -247,7 +249,7 @@ def cohen_sutherland_steps(
     0; otherwise move the outside endpoint to the first edge (top, bottom, right,
     left) its code names, and repeat. Same arguments and results as `cohen_sutherland`.
     """
-    segments, window = common_finite(segments, window, names=("segments", "window"))
+    segments, window = common_float(segments, window, names=("segments", "window"))
     segments = _check_segments(segments)
     return _cohen_sutherland_steps(segments, _window(window))
 
@@ -350,7 +352,7 @@ def liang_barsky(
 
     **Returns:** `(clipped, visible)` as `cohen_sutherland` (NaN where not visible).
     """
-    segments, window = common_finite(segments, window, names=("segments", "window"))
+    segments, window = common_float(segments, window, names=("segments", "window"))
     segments = _check_segments(segments)
     return _liang_barsky(segments, _window(window))
 

@@ -6,12 +6,11 @@ from __future__ import annotations
 import functools
 from collections.abc import Sequence
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Shaped
 
-from .._checks import checked_jit, static_int
+from .._checks import attach_check, checked_jit, static_int
 from ..raster._args import array_arg
 
 __all__ = ["MAX_NETWORK_SIZE", "selection_network", "median", "median_of_sum"]
@@ -139,18 +138,10 @@ def median(values: Shaped[Array, "*batch n"], *, axis: int = -1) -> Shaped[Array
 
 def guard_finite(x, checked, name: str):
     """Inside a jitted function: `x` after checking that `checked` (a float array) holds
-    no NaN or inf (`equinox.error_if`; `checked_jit` turns it into `ValueError` eagerly).
-
-    The error is attached to a scalar `1` that multiplies `x` (exact), so the check
-    costs one fused reduction, not a copy of `x` through a conditional."""
+    no NaN or inf (`attach_check`; `checked_jit` turns it into `ValueError` eagerly)."""
     if not jnp.issubdtype(jnp.result_type(checked), jnp.floating):
         return x
-    one = eqx.error_if(
-        jnp.ones((), x.dtype),
-        ~jnp.all(jnp.isfinite(checked)),
-        f"`{name}` must be finite (no NaN or inf)",
-    )
-    return x * one
+    return attach_check(x, ~jnp.isfinite(checked), f"`{name}` must be finite (no NaN or inf)")
 
 
 @functools.partial(checked_jit, static_argnames="axis")
