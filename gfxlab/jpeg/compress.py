@@ -117,7 +117,9 @@ def compress(
       can have the wrong sign (use it for image gradients only).
 
     `quality` is continuous: the twin's tables follow IJG's scale curve smoothly, so
-    `d image / d quality` is finite on all of [1, 100].
+    `d image / d quality` is finite on all of [1, 100]. It is zero where every table
+    entry is clamped (to 255 below q = 2, to 1 at q = 100): start a fit of `quality`
+    inside, say in [5, 95].
 
     **Arguments:**
 
@@ -171,8 +173,9 @@ def _compress(image, quality, factors, rounding):
         quality = quality.astype(image.dtype)
         twin = _twin(image, quality, list(factors), rounding)
         out = twin + jax.lax.stop_gradient(_exact(image, quality, list(factors)) - twin)
-    # NaN fails both comparisons: the one message is true of NaN and inf too
-    return attach_check(out, ~((image >= 0) & (image <= 1)), "`image` must be in [0, 1]")
+    # NaN fails both comparisons: one check refuses NaN, inf and values outside [0, 1]
+    outside = ~((image >= 0) & (image <= 1))
+    return attach_check(out, outside, "`image` must be in [0, 1] (no NaN or inf)")
 
 
 def psnr(a, b, *, peak: float = 1.0) -> Array:
