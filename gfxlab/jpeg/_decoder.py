@@ -6,9 +6,8 @@ array: per component, each of the 64 coefficient positions is one contiguous row
 all its blocks, the layout in which XLA runs the IDCT fastest (the coefficients stay
 on the device). The pixels are then reconstructed exactly as
 libjpeg-turbo does by default (islow IDCT, fancy upsampling, its colour tables),
-vectorized over all blocks: NumPy for small images; for large ones a compiled IDCT,
-a NumPy transpose into image order and a compiled upsampling and colour conversion,
-per image geometry.
+vectorized over all blocks: NumPy for small images; for large ones one compiled
+program per image geometry.
 
 The colour space follows libjpeg's rules (`jdapimin.c`): one component is grey;
 three are YCbCr when a JFIF marker is present, else as an Adobe APP14 marker's
@@ -336,51 +335,45 @@ def _colour(planes, colour: str, xp):
 
 
 def _reconstruct_compiled(coef, stride, tables, geometry):
-    """`_reconstruct` as two compiled programs: the IDCT on the planar blocks (uint8
-    samples, blocks along the trailing axes), then upsampling and colour on planes in
-    image order; NumPy transposes the samples in between (XLA's transpose of this
-    layout costs several times the IDCT)."""
+    """`_reconstruct` as one compiled program per image geometry."""
+    return np.asarray(_compiled_reconstruct(geometry, stride)(coef, tables))
+
+
+def _image_order(block_samples, xp):
+    """`(8, 8, rows, cols)` samples (0..255) -> the `(8 rows, 8 cols)` uint8 plane.
+
+    XLA transposes this layout slowly (byte by byte, several times the IDCT's cost);
+    instead each run of 4 horizontal samples is packed into a uint32 word in the
+    planar layout (elementwise), the words are moved into image order and the bytes
+    read back in place (little-endian, as XLA's CPU and GPU targets are)."""
+    from jax import lax
+
+    s = block_samples.astype(xp.uint32)
+    words = [s[:, x] | s[:, x + 1] << 8 | s[:, x + 2] << 16 | s[:, x + 3] << 24 for x in (0, 4)]
+    words = xp.stack(words, axis=-1).transpose(1, 0, 2, 3)  # (rows, 8, cols, 2)
+    rows, _, cols, _ = words.shape
+    return lax.bitcast_convert_type(words, xp.uint8).reshape(8 * rows, 8 * cols)
+
+
+@functools.lru_cache(maxsize=32)
+def _compiled_reconstruct(geometry, stride: int):
+    import jax
+    import jax.numpy as jnp
+
     height, width, factors, places, colour = geometry
     _, _, layout = L.component_layout(height, width, factors)
-    samples = []
-    for block_samples, (_, (h_c, w_c), _) in zip(
-        _compiled_idct(geometry, stride)(coef, tables), layout, strict=True
-    ):
-        block_samples = np.asarray(block_samples)
-        rows, cols = block_samples.shape[2:]
-        plane = block_samples.transpose(2, 0, 3, 1).reshape(8 * rows, 8 * cols)
-        samples.append(np.ascontiguousarray(plane[:h_c, :w_c]))
-    return np.asarray(_compiled_finish(geometry)(samples))
 
-
-@functools.lru_cache(maxsize=32)
-def _compiled_idct(geometry, stride: int):
-    import jax
-    import jax.numpy as jnp
-
-    def idct(coef, tables):
-        return [
-            L.idct_islow_planar(
-                _component_blocks(coef, stride, place, jnp).astype(jnp.int32), tables[i], jnp
-            ).astype(jnp.uint8)
-            for i, place in enumerate(geometry[3])
-        ]
-
-    return jax.jit(idct)
-
-
-@functools.lru_cache(maxsize=32)
-def _compiled_finish(geometry):
-    import jax
-    import jax.numpy as jnp
-
-    height, width, factors, _, colour = geometry
-
-    def finish(samples):
+    def reconstruct(coef, tables):
+        samples = []
+        for i, (place, (_, (h_c, w_c), _)) in enumerate(zip(places, layout, strict=True)):
+            blocks = _component_blocks(coef, stride, place, jnp).astype(jnp.int32)
+            samples.append(
+                _image_order(L.idct_islow_planar(blocks, tables[i], jnp), jnp)[:h_c, :w_c]
+            )
         planes = L.upsample_planes(samples, factors, height, width, jnp)
         return _colour(planes, colour, jnp)
 
-    return jax.jit(finish)
+    return jax.jit(reconstruct)
 
 
 def check_compiled(compiled) -> bool | None:
@@ -402,7 +395,7 @@ def decode(
     ends after a complete scan without its EOI marker decodes with a warning.
 
     Images of 1024 blocks or more (64 K pixels) are entropy-decoded by a compiled XLA
-    loop and reconstructed by two compiled programs: the first file of a size bucket
+    loop and reconstructed by one compiled program: the first file of a size bucket
     compiles them (seconds), later files of similar size reuse them. Smaller images are
     decoded in Python and NumPy. `compiled` overrides that choice; the pixels are the same.
 

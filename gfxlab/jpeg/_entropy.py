@@ -58,16 +58,16 @@ def _packed(value, step, bits):
     return (np.asarray(value, np.int64) << 16) | (np.asarray(step, np.int64) << 5) | bits
 
 
-def _fast_table(lut16: np.ndarray, table_class: int) -> np.ndarray:
-    """The first-level table over all `LOOKAHEAD`-bit windows; 0 where the code and
+def _fast_table(lut16: np.ndarray, table_class: int, lookahead: int = LOOKAHEAD) -> np.ndarray:
+    """The first-level table over all `lookahead`-bit windows; 0 where the code and
     its extra bits do not fit in the window (or no code matches)."""
-    window = np.arange(1 << LOOKAHEAD, dtype=np.int64)
-    entry = lut16[window << (16 - LOOKAHEAD)].astype(np.int64)
+    window = np.arange(1 << lookahead, dtype=np.int64)
+    entry = lut16[window << (16 - lookahead)].astype(np.int64)
     length, symbol = entry >> 8, entry & 255
     size = symbol & 15 if table_class else symbol
     total = length + size
-    fits = (length > 0) & (total <= LOOKAHEAD)
-    extra = (window >> np.maximum(LOOKAHEAD - total, 0)) & ((1 << size) - 1)
+    fits = (length > 0) & (total <= lookahead)
+    extra = (window >> np.maximum(lookahead - total, 0)) & ((1 << size) - 1)
     value = np.where(size > 0, _extend(extra, size), 0)
     if table_class == 0:
         step = np.ones_like(symbol)
