@@ -302,6 +302,23 @@ def test_batched_views_and_vertices_equal_single_renders():
     np.testing.assert_allclose(batch.alpha[1], one.alpha, atol=1e-12)
 
 
+def test_an_explicit_capacity_that_overflows_is_grown_eagerly_with_a_warning():
+    """An eager render with too small a `capacity` (e.g. from `tile_capacity` before a
+    fit moved the mesh) warns, recompiles with room for the busiest tile and returns
+    what a sufficient capacity gives, for single and batched views alike."""
+    mesh, batch = batched_views()
+    cameras = Camera(jnp.asarray(EYES), near=0.5, far=5.0)
+    enough = R.tile_capacity(mesh, cameras, (9, 9), sigma=0.5)
+    assert enough > 1
+    with pytest.warns(RuntimeWarning, match=r"more than `capacity` = 1; recompiling"):
+        grown = R.render(mesh, cameras, (9, 9), sigma=0.5, capacity=1)
+    np.testing.assert_array_equal(grown.color, batch.color)
+    one = Camera(jnp.asarray(EYES[0]), near=0.5, far=5.0)
+    with pytest.warns(RuntimeWarning, match="recompiling"):
+        grown = R.render(mesh, one, (9, 9), mode="hard", capacity=1)
+    np.testing.assert_array_equal(grown.color, R.render(mesh, one, (9, 9), mode="hard").color)
+
+
 def test_sharded_views_equal_unsharded(tmp_path):
     """A child process with two CPU devices renders the four views sharded (two per
     device); they equal this process's unsharded batch (`batched_views`)."""

@@ -9,6 +9,7 @@ from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from .._checks import (
     as_float,
@@ -22,8 +23,8 @@ from .._checks import (
 )
 from ..mesh import check_faces
 from ..viewing import Camera
-from ._project import check_mesh_camera, project_faces
-from ._tiles import any_traced, check_options, logit_limit, resolve_capacity
+from ._project import check_mesh_camera, measured_tile_count
+from ._tiles import any_traced, check_options, resolve_capacity
 
 
 class RenderConfig(NamedTuple):
@@ -104,12 +105,23 @@ def check_render_inputs(mesh, camera, vertices, attributes):
     return vertices, camera, batched, attributes
 
 
+def _float_option(x, name: str, dtype):
+    """A float option as `dtype`: a Python number or NumPy value stays in NumPy (each
+    eager JAX operation on a scalar costs tens of microseconds; the jitted call takes
+    NumPy arguments as they are), anything else becomes a JAX array."""
+    if isinstance(x, int | float | np.ndarray | np.generic) and not isinstance(x, bool):
+        arr = np.asarray(x)
+        if arr.dtype.kind in "iuf":
+            return arr.astype(dtype)
+    return jnp.asarray(as_float(x, name), dtype)
+
+
 def render_options(mesh, dtype, sigma, gamma, ambient, background, eps, eps_background, sizes):
     """`render`'s checked numeric options: `(params, ambient, background, sizes)` with
     `params = (sigma, gamma, eps_background)` and `sizes = (tile_size, capacity,
     tiles_per_step)`."""
-    sigma = jnp.asarray(as_float(sigma, "sigma"), dtype)
-    gamma = jnp.asarray(as_float(gamma, "gamma"), dtype)
+    sigma = _float_option(sigma, "sigma", dtype)
+    gamma = _float_option(gamma, "gamma", dtype)
     sigma, *sizes = check_options(sigma, eps, *sizes)
     gamma = positive(gamma, "gamma")
     channels = (
@@ -117,18 +129,20 @@ def render_options(mesh, dtype, sigma, gamma, ambient, background, eps, eps_back
         if mesh.colors is not None
         else (mesh.texture.shape[-1] if mesh.texture is not None else 3)
     )
-    background = check_finite(as_float(background, "background").astype(dtype), "background")
+    background = check_finite(_float_option(background, "background", dtype), "background")
     if background.ndim > 1 or background.size not in (1, channels):
         raise ValueError(
             f"`background` must be a scalar or a colour ({channels},), got shape {background.shape}"
         )
-    background = jnp.broadcast_to(background, (channels,))
-    ambient = jnp.asarray(as_float(ambient, "ambient"), dtype)
+    xp = np if isinstance(background, np.ndarray) else jnp
+    background = xp.broadcast_to(background, (channels,))
+    ambient = _float_option(ambient, "ambient", dtype)
     # Every rendering uses the background but only a lit one the ambient term: the
     # ambient check rides on the background, so that it is never dead code under jit.
     background = _finite_alongside(background, ambient, "ambient")
-    eps_background = check_finite(as_float(eps_background, "eps_background"), "eps_background")
-    return (sigma, gamma, eps_background.astype(dtype)), ambient, background, tuple(sizes)
+    eps_background = _float_option(eps_background, "eps_background", dtype)
+    eps_background = check_finite(eps_background, "eps_background")
+    return (sigma, gamma, eps_background), ambient, background, tuple(sizes)
 
 
 def _finite_alongside(x, other, name: str):
@@ -152,19 +166,29 @@ def render_config(mesh, vertices, camera, batched, sigma, mode, shape, *, eps, s
     antialias, cull_backfaces, reference = flags
     soft = mode == "soft"
     traced = any_traced(mesh, vertices, camera, sigma)
-    tri = valid = None
-    if not traced:  # measure the capacity from the projected geometry
-
-        def project(v, c):
-            return project_faces(v, mesh.faces, c, shape, cull_backfaces=cull_backfaces)
-
+    needed = None
+    if not traced and capacity is not None:
+        # An explicit capacity is checked after the run (`render` grows it if a tile
+        # overflowed): measuring first would cost an eager call a second compiled call.
+        needed = 0
+    elif not traced:  # measure the capacity from the projected geometry (one compiled call)
         axes = (0 if vertices.ndim == 3 else None, 0 if batched else None)
-        if axes != (None, None):
-            project = jax.vmap(project, in_axes=axes)
-        tri, _, _, valid = project(vertices, camera)
-    margin = jnp.sqrt(sigma * logit_limit(eps)) if soft else jnp.zeros((), vertices.dtype)
+        # (inside a user's jit the geometry may still be concrete: compute it now)
+        with jax.ensure_compile_time_eval():
+            needed = measured_tile_count(
+                vertices,
+                mesh.faces,
+                camera,
+                sigma if soft else None,
+                shape=shape,
+                tile_size=tile_size,
+                eps=float(eps),
+                cull_backfaces=bool(cull_backfaces),
+                axes=axes,
+            )
+            needed = int(needed)
     capacity = resolve_capacity(
-        capacity, tri, valid, margin, shape, tile_size, traced, mesh.num_faces
+        capacity, None, None, None, shape, tile_size, traced, mesh.num_faces, needed=needed
     )
     return RenderConfig(
         shape,

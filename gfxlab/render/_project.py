@@ -8,15 +8,24 @@ screen-space triangle scene of the hidden-surface methods (`gfxlab.render.hsr`).
 
 from __future__ import annotations
 
+import functools
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from .._checks import as_float, check_finite, check_shape, static_shape, value_error_if
+from .._checks import (
+    as_float,
+    check_finite,
+    check_shape,
+    static_shape,
+    trusted_values,
+    value_error_if,
+)
 from ..mesh import Mesh
 from ..viewing import Camera
-from ._tiles import cross2
+from ._tiles import cross2, logit_limit, max_tile_count
 
 
 def check_mesh_camera(mesh, camera) -> None:
@@ -85,3 +94,26 @@ def _screen_scene(mesh, camera, light, ambient, shape):
     scene = jnp.concatenate([tri, ndc_z[..., None]], -1)
     scene = jnp.where(valid[:, None, None], scene, 0.0)
     return scene, _flat_colors(mesh, light, ambient).mean(axis=1)
+
+
+@functools.partial(jax.jit, static_argnames=("shape", "tile_size", "eps", "cull_backfaces", "axes"))
+def measured_tile_count(
+    vertices, faces, camera, sigma, *, shape, tile_size, eps, cull_backfaces, axes
+):
+    """The largest number of faces whose box, grown by the soft margin of `sigma` and
+    `eps` (none where `sigma` is None), reaches one tile, over the views of a render
+    (`axes`: the batch axes of `vertices` and `camera`, as `jax.vmap`'s `in_axes`).
+
+    One compiled call: an eager `render` measures its tile capacity with it before
+    compiling the render itself (op by op, the projection alone was some 30 dispatches).
+    """
+
+    def project(v, c):
+        with trusted_values():  # the caller checked the mesh and the camera
+            return project_faces(v, faces, c, shape, cull_backfaces=cull_backfaces)
+
+    if axes != (None, None):
+        project = jax.vmap(project, in_axes=axes)
+    tri, _, _, valid = project(vertices, camera)
+    margin = jnp.zeros((), tri.dtype) if sigma is None else jnp.sqrt(sigma * logit_limit(eps))
+    return max_tile_count(tri, valid, margin, shape=shape, tile_size=tile_size)

@@ -445,13 +445,16 @@ def check_options(sigma, eps, tile_size, capacity, tiles_per_step):
     return sigma, tile_size, capacity, tiles_per_step
 
 
-def resolve_capacity(capacity, tri, valid, margin, shape, tile_size, traced_inputs, faces=None):
+def resolve_capacity(
+    capacity, tri, valid, margin, shape, tile_size, traced_inputs, faces=None, *, needed=None
+):
     """The capacity to compile with, and whether a run must be checked for overflow.
 
     `capacity=None`: measured from the geometry (eagerly). Under `jax.jit` the geometry
     is unknown: up to `TRACED_ALL_FACES` faces every tile gets room for all of them,
     beyond that a clear error (at trace time) asks for an explicit capacity. An explicit
-    capacity that an eager call overflows is grown, with a warning.
+    capacity that an eager call overflows is grown, with a warning. `needed`: the
+    largest tile count, if measured already (then `tri`, `valid`, `margin` are unused).
     """
     faces = tri.shape[-3] if faces is None else faces
     if traced_inputs:
@@ -466,19 +469,26 @@ def resolve_capacity(capacity, tri, valid, margin, shape, tile_size, traced_inpu
                 "`capacity=`"
             )
         return capacity
-    needed = int(max_tile_count(tri, valid, margin, shape=shape, tile_size=tile_size))
+    if needed is None:
+        needed = int(max_tile_count(tri, valid, margin, shape=shape, tile_size=tile_size))
     if capacity is None:
         return round_capacity(needed, faces)
     if needed > capacity:
-        grown = round_capacity(needed, faces)
-        warnings.warn(
-            f"a {tile_size}x{tile_size} tile overlaps {needed} faces, more than `capacity` = "
-            f"{capacity}; recompiling with capacity {grown}",
-            RuntimeWarning,
-            stacklevel=3,
-        )
-        return grown
+        return grown_capacity(needed, capacity, tile_size, faces, stacklevel=4)
     return capacity
+
+
+def grown_capacity(needed: int, capacity: int, tile_size: int, faces: int, *, stacklevel=3):
+    """The capacity to recompile with when an eager call's tile saw `needed` > `capacity`
+    faces, with a warning (an eager call grows its capacity, it never aborts)."""
+    grown = round_capacity(needed, faces)
+    warnings.warn(
+        f"a {tile_size}x{tile_size} tile overlaps {needed} faces, more than `capacity` = "
+        f"{capacity}; recompiling with capacity {grown}",
+        RuntimeWarning,
+        stacklevel=stacklevel,
+    )
+    return grown
 
 
 def any_traced(*trees) -> bool:

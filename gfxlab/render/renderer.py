@@ -31,6 +31,7 @@ import numpy as np
 from jaxtyping import Array, Float, Int
 
 from .._checks import (
+    is_traced,
     safe_normalize,
     trusted_values,
 )
@@ -48,7 +49,7 @@ from ._inputs import (
     render_options,
 )
 from ._project import check_mesh_camera, project_faces
-from ._tiles import check_capacity, logit_limit, pixel_face_planes, tiled
+from ._tiles import check_capacity, grown_capacity, logit_limit, pixel_face_planes, tiled
 from .shading import _check_lights, sample_texture, shade
 
 __all__ = [
@@ -377,7 +378,9 @@ def render(
       nearer than the near plane are always dropped.
     - `antialias`: edge antialiasing of the hard image (gives silhouettes gradients).
     - `eps`, `eps_background`, `tile_size`, `capacity`, `tiles_per_step`: as in
-      `soft_rasterize`; `capacity=None` measures it from the geometry (eager calls).
+      `soft_rasterize`; `capacity=None` measures it from the geometry (eager calls:
+      one more compiled call). An explicit capacity that a tile of an eager call
+      overflows is grown, with a warning, and the call recompiled and run again.
 
     **Returns:** a `Rendering`.
     """
@@ -400,6 +403,12 @@ def render(
     lights = _check_lights(lights)
     extras = (attributes, lights, brdf, ambient, background, params)
     result, max_count = _render_jit(mesh, vertices, camera, extras, config=config)
+    if not is_traced(max_count) and capacity is not None:
+        needed = int(np.max(np.asarray(max_count)))
+        if needed > config.capacity:  # grown and recompiled, with a warning
+            grown = grown_capacity(needed, config.capacity, tile_size, mesh.num_faces)
+            config = config._replace(capacity=grown)
+            result, max_count = _render_jit(mesh, vertices, camera, extras, config=config)
     color = check_capacity(result.color, max_count, config.capacity, tile_size, mesh.num_faces)
     return eqx.tree_at(lambda r: r.color, result, color)
 

@@ -33,14 +33,13 @@ from .._checks import (
 )
 from ..mesh import Mesh, face_normals
 from ..viewing import Camera
-from ._inputs import silhouette_inputs
-from ._project import check_mesh_camera, project_faces
+from ._inputs import check_render_inputs, silhouette_inputs
+from ._project import check_mesh_camera, measured_tile_count, project_faces
 from ._tiles import (
     any_traced,
     check_capacity,
     check_options,
     logit_limit,
-    max_tile_count,
     pixel_face_terms,
     resolve_capacity,
     round_capacity,
@@ -259,20 +258,26 @@ def tile_capacity(
     multiplies by `slack` (>= 1; room for the geometry to move during a fit) and rounds
     up to a power of two (at most the number of faces). `camera` may be batched.
     """
-    check_mesh_camera(mesh, camera)
+    _, camera, batched, _ = check_render_inputs(mesh, camera, None, None)
     height, width = static_shape(shape)
     if not isinstance(slack, float | int) or not slack >= 1:
         raise ValueError(f"`slack` must be a number >= 1, got {slack!r}")
     sigma = as_float(sigma, "sigma").astype(mesh.vertices.dtype)
     check_shape(sigma, "sigma", ())
     sigma, tile_size, _, _ = check_options(sigma, eps, tile_size, None, 1)
-    project = functools.partial(project_faces, shape=(height, width))
-    if camera.eye.ndim == 2:
-        tri, _, _, valid = jax.vmap(lambda c: project(mesh.vertices, mesh.faces, c))(camera)
-    else:
-        tri, _, _, valid = project(mesh.vertices, mesh.faces, camera)
-    margin = jnp.sqrt(sigma * logit_limit(eps))
-    needed = int(max_tile_count(tri, valid, margin, shape=(height, width), tile_size=tile_size))
+    with jax.ensure_compile_time_eval():  # concrete geometry inside a user's jit
+        needed = measured_tile_count(
+            mesh.vertices,
+            mesh.faces,
+            camera,
+            sigma,
+            shape=(height, width),
+            tile_size=tile_size,
+            eps=float(eps),
+            cull_backfaces=False,
+            axes=(None, 0 if batched else None),
+        )
+        needed = int(needed)
     return round_capacity(int(needed * slack + 0.999), mesh.num_faces)
 
 

@@ -16,7 +16,9 @@ import jax.numpy as jnp
 import numpy as np
 from harness import timeit_pair
 
-from gfxlab import animation, brdf, clipping, color, curves, image, jpeg, raster, transforms
+from gfxlab import animation, brdf, clipping, color, curves, image, jpeg, raster, render, transforms
+from gfxlab.mesh import pawn
+from gfxlab.viewing import Camera
 
 
 def _cases(n: int, side: int):
@@ -37,6 +39,11 @@ def _cases(n: int, side: int):
     q1 = jnp.broadcast_to(jnp.array([0.0, 0.0, 0.0, 1.0], jnp.float32), (n, 4))
     star = jnp.array([[0, 0], [side - 1, side // 3], [side // 4, side - 1]], jnp.float32)
     matrix = transforms.rotate_z(jnp.float32(0.3))
+    model = pawn(segments=16)  # 800 faces
+    camera = Camera(jnp.array([0.0, 1.0, 5.0]), jnp.array([0.0, 1.0, 0.0]), fov_y=0.6)
+    view = (side // 2, side // 2)  # 8 x 8 and 256 x 256
+    # `capacity` given, as a traced call needs it (an eager call measures it itself)
+    capacity = render.tile_capacity(model, camera, view, sigma=1.0, slack=1.2)
     return {
         "transforms.apply": (transforms.apply, (matrix, points), {}),
         "clipping.cohen_sutherland": (clipping.cohen_sutherland, (segments, window), {}),
@@ -53,6 +60,11 @@ def _cases(n: int, side: int):
             {},
         ),
         "jpeg.compress q50": (jpeg.compress, (photo,), {"quality": 50.0}),
+        "render.render (800 faces, soft)": (
+            functools.partial(render.render, shape=view, capacity=capacity),
+            (model, camera),
+            {},
+        ),
     }
 
 
