@@ -47,6 +47,7 @@ from .._checks import (
     check_range,
     check_shape,
     checked_jit,
+    host_value,
     is_traced,
     safe_normalize,
     static_int,
@@ -102,9 +103,11 @@ def check_faces(faces, num_vertices: int, name: str = "faces") -> jax.Array:
     _check_label(name)
     num_vertices = static_int(num_vertices, "num_vertices", minimum=0, maximum=MAX_ELEMENTS)
     faces = _index_array(faces, name)
+    host = host_value(faces)  # concrete indices: checked in NumPy, without a dispatch
+    values = faces if host is None else host
     return value_error_if(
         faces,
-        (faces < 0) | (faces >= num_vertices),
+        (values < 0) | (values >= num_vertices),
         f"`{name}` must index the {num_vertices} vertices (0 <= index < {num_vertices})",
     )
 
