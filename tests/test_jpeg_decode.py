@@ -169,6 +169,13 @@ def test_pixel_limit_refuses_before_allocating():
     # Under the limit but far more blocks than the scan can hold: refused before allocating.
     with pytest.raises(jpeg.JPEGError, match="cannot fit"):
         jpeg.decode(_declare_size(data, 8000, 8000))
+    # ... and with no pixel limit at all, a bomb is refused from the frame and scan sizes
+    tracemalloc.start()
+    with pytest.raises(jpeg.JPEGError, match="cannot fit"):
+        jpeg.decode(bomb, max_pixels=None)
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    assert peak < 2e6
     with pytest.raises(TypeError, match="max_pixels"):
         jpeg.decode(data, max_pixels=1.5)
     with pytest.raises(ValueError, match="max_pixels"):

@@ -380,6 +380,20 @@ def test_bad_inputs():
         R.render(mesh, camera, (8, 8), gamma=-1.0)
     with pytest.raises(ValueError, match="background"):
         R.render(mesh, camera, (8, 8), background=jnp.asarray(np.zeros(2)))
+    # scalar options of the wrong shape are named (not a broadcasting error deep inside)
+    for name, value in (
+        ("sigma", np.ones(2)),
+        ("gamma", [0.1, 0.2]),
+        ("eps_background", [0.1] * 3),
+    ):
+        with pytest.raises(ValueError, match=f"`{name}` must have shape"):
+            R.render(mesh, camera, (8, 8), **{name: value})
+    with pytest.raises(ValueError, match="`ambient` must be a scalar or a colour"):
+        R.render(mesh, camera, (8, 8), ambient=np.ones(2))
+    # a capacity beyond the number of faces is clamped to it, not allocated
+    np.testing.assert_array_equal(
+        R.render(mesh, camera, (8, 8), capacity=10**9).color, R.render(mesh, camera, (8, 8)).color
+    )
     with pytest.raises(ValueError, match="attributes"):
         R.render(mesh, camera, (8, 8), attributes=jnp.asarray(np.zeros((4, 2))))
     with pytest.raises(TypeError, match="lights"):

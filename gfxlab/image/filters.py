@@ -233,6 +233,9 @@ def median_filter(
     - `mode`: border handling, one of `MODES`: "reflect", "constant", "nearest", "mirror",
       "wrap" (as in `scipy.ndimage`).
     - `cval`: the value outside the image for `mode="constant"` (finite; may be traced).
+      For an integer image it is clamped to the dtype's range (`cval=300` on uint8 is
+      255), where SciPy wraps it as a C cast does (300 becomes 44): a deliberate
+      difference.
 
     **Returns:**
 

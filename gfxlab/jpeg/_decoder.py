@@ -266,6 +266,13 @@ def _decode_image(state: _State, sos: bytes, data: bytes) -> np.ndarray:
     height, width, comps = state.frame
     order, plan = _scan_plan(state, sos)
     factors = tuple((c[1], c[2]) for c in comps)
+    # Every block takes at least two bits: a frame that cannot fit in the scan is
+    # refused before its block plan and coefficients are allocated.
+    if 2 * _block_count(height, width, factors, order) > 8 * len(data):
+        raise JPEGError(
+            f"truncated JPEG: a {width} x {height} frame cannot fit in {len(data)} bytes of "
+            "scan data"
+        )
     dest, places = _destinations(height, width, factors, tuple(order))
     n_mcu = dest.size // len(plan)
     coef, stride = decode_scan(data, plan, n_mcu, state.restart, dest, compiled=state.compiled)
@@ -275,6 +282,17 @@ def _decode_image(state: _State, sos: bytes, data: bytes) -> np.ndarray:
     if height * width >= _COMPILE_FROM_PIXELS if compiled is None else compiled:
         return _reconstruct_compiled(coef, stride, tables, geometry)
     return _reconstruct(np.asarray(coef), stride, tables, geometry)
+
+
+def _block_count(height: int, width: int, factors: tuple, order: list) -> int:
+    """The blocks a scan of components `order` codes (MCU padding included)."""
+    hmax = max(f[0] for f in factors)
+    vmax = max(f[1] for f in factors)
+    if len(order) == 1:
+        h, v = factors[order[0]]
+        return _cdiv(_cdiv(height * v, vmax), 8) * _cdiv(_cdiv(width * h, hmax), 8)
+    per_mcu = sum(factors[i][0] * factors[i][1] for i in order)
+    return _cdiv(width, 8 * hmax) * _cdiv(height, 8 * vmax) * per_mcu
 
 
 @functools.lru_cache(maxsize=64)

@@ -122,6 +122,8 @@ def render_options(mesh, dtype, sigma, gamma, ambient, background, eps, eps_back
     tiles_per_step)`."""
     sigma = _float_option(sigma, "sigma", dtype)
     gamma = _float_option(gamma, "gamma", dtype)
+    check_shape(sigma, "sigma", ())
+    check_shape(gamma, "gamma", ())
     sigma, *sizes = check_options(sigma, eps, *sizes)
     gamma = positive(gamma, "gamma")
     channels = (
@@ -137,10 +139,15 @@ def render_options(mesh, dtype, sigma, gamma, ambient, background, eps, eps_back
     xp = np if isinstance(background, np.ndarray) else jnp
     background = xp.broadcast_to(background, (channels,))
     ambient = _float_option(ambient, "ambient", dtype)
+    if ambient.ndim > 1 or ambient.size not in (1, channels):
+        raise ValueError(
+            f"`ambient` must be a scalar or a colour ({channels},), got shape {ambient.shape}"
+        )
     # Every rendering uses the background but only a lit one the ambient term: the
     # ambient check rides on the background, so that it is never dead code under jit.
     background = _finite_alongside(background, ambient, "ambient")
     eps_background = _float_option(eps_background, "eps_background", dtype)
+    check_shape(eps_background, "eps_background", ())
     eps_background = check_finite(eps_background, "eps_background")
     return (sigma, gamma, eps_background), ambient, background, tuple(sizes)
 

@@ -457,6 +457,8 @@ def resolve_capacity(
     largest tile count, if measured already (then `tri`, `valid`, `margin` are unused).
     """
     faces = tri.shape[-3] if faces is None else faces
+    if capacity is not None:
+        capacity = min(capacity, max(faces, 1))  # room for every face is enough
     if traced_inputs:
         if capacity is None and faces <= TRACED_ALL_FACES:
             return max(faces, 1)  # every face fits in every tile: no overflow possible

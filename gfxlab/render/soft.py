@@ -256,7 +256,8 @@ def tile_capacity(
 
     Counts the largest number of faces whose grown bounding box reaches one tile,
     multiplies by `slack` (>= 1; room for the geometry to move during a fit) and rounds
-    up to a power of two (at most the number of faces). `camera` may be batched.
+    up to one of four steps per octave (8, 10, 12, 14, 16, 20, ...; at most the number of
+    faces). `camera` may be batched.
     """
     _, camera, batched, _ = check_render_inputs(mesh, camera, None, None)
     height, width = static_shape(shape)
