@@ -284,13 +284,18 @@ def _decode_image(state: _State, sos: bytes, data: bytes) -> np.ndarray:
     return _reconstruct(np.asarray(coef), stride, tables, geometry)
 
 
+def _block_grid(height: int, width: int, h: int, v: int, hmax: int, vmax: int):
+    """A component's real blocks `(rows, cols)` (libjpeg's `jdiv_round_up` rules)."""
+    return _cdiv(_cdiv(height * v, vmax), 8), _cdiv(_cdiv(width * h, hmax), 8)
+
+
 def _block_count(height: int, width: int, factors: tuple, order: list) -> int:
     """The blocks a scan of components `order` codes (MCU padding included)."""
     hmax = max(f[0] for f in factors)
     vmax = max(f[1] for f in factors)
     if len(order) == 1:
-        h, v = factors[order[0]]
-        return _cdiv(_cdiv(height * v, vmax), 8) * _cdiv(_cdiv(width * h, hmax), 8)
+        rows, cols = _block_grid(height, width, *factors[order[0]], hmax, vmax)
+        return rows * cols
     per_mcu = sum(factors[i][0] * factors[i][1] for i in order)
     return _cdiv(width, 8 * hmax) * _cdiv(height, 8 * vmax) * per_mcu
 
@@ -307,13 +312,13 @@ def _destinations(height: int, width: int, factors: tuple, order: tuple):
     places, pieces, first = {}, [], 0  # by frame component
     if len(order) == 1:
         h, v = factors[order[0]]
-        rows, cols = _cdiv(_cdiv(height * v, vmax), 8), _cdiv(_cdiv(width * h, hmax), 8)
+        rows, cols = _block_grid(height, width, h, v, hmax, vmax)
         return np.arange(rows * cols, dtype=np.int32), ((0, rows, cols, rows, cols),)
     mcu_x, mcu_y = _cdiv(width, 8 * hmax), _cdiv(height, 8 * vmax)
     mcu_row, mcu_col = np.divmod(np.arange(mcu_x * mcu_y), mcu_x)
     for i in order:
         h, v = factors[i]
-        rows, cols = _cdiv(_cdiv(height * v, vmax), 8), _cdiv(_cdiv(width * h, hmax), 8)
+        rows, cols = _block_grid(height, width, h, v, hmax, vmax)
         places[i] = (first, mcu_y * v, mcu_x * h, rows, cols)
         dv, dh = np.divmod(np.arange(v * h), h)  # block order within the MCU
         grid_row = mcu_row[:, None] * v + dv
