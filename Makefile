@@ -22,7 +22,7 @@ export JAX_COMPILATION_CACHE_DIR ?= $(HOME)/.cache/gfxlab/jax
 export JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS ?= 0
 export GFXLAB_LABS_OUT := $(abspath $(LABS_OUT))
 
-.PHONY: lab test bench lint format docs clean
+.PHONY: lab test bench anchors lint format docs clean
 
 # `mkdocs`, without jsonschema's IRI grammar: nbformat (under mkdocs-jupyter) imports
 # jsonschema, which builds an Earley parser for the "iri" format at import (~2.5 s);
@@ -73,7 +73,20 @@ test: $(VENV)/.installed-dev
 	@$(MAKE) --no-print-directory lint
 	@$(MAKE) --no-print-directory docs
 
+# The renderer bench's hard-path anchor, jaxrenderer, pins an old JAX (< 0.5) and
+# NumPy (< 2): it gets a pinned venv of its own, made once, when the render bench runs.
+# Without it (no registry) the bench says so and skips that row.
+ANCHOR_VENV := .venv-anchors/jaxrenderer
+$(ANCHOR_VENV)/.installed: tests/benchmarks/anchors/jaxrenderer.txt
+	$(PYTHON) -m venv $(ANCHOR_VENV)
+	$(ANCHOR_VENV)/bin/python -m pip install --quiet --no-deps -r $<
+	touch $@
+
+anchors: $(ANCHOR_VENV)/.installed
+
 bench: $(VENV)/.installed-dev
+	@$(if $(or $(filter render,$(BENCH)),$(if $(BENCH),,all)),\
+		$(MAKE) --no-print-directory anchors || echo "jaxrenderer's venv could not be made",:)
 	MPLBACKEND=Agg $(BIN)/python tests/benchmarks/run.py $(BENCH)
 
 lint: $(VENV)/.installed-dev
@@ -93,4 +106,4 @@ docs: $(VENV)/.installed-dev
 		--site-dir build/site
 
 clean:
-	rm -rf $(VENV) build site *.egg-info .pytest_cache
+	rm -rf $(VENV) .venv-anchors build site *.egg-info .pytest_cache

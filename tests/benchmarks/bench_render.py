@@ -11,13 +11,21 @@ default settings (8x8 tiles, capacity measured from the geometry). Rows:
 - 10,000 random faces at 256x256, forward + backward (vertices);
 - the shipped 1,600-face pawn rendered eagerly with all defaults.
 
-`jaxrenderer` (the JAX rasterizer on PyPI) is not compared: its latest release (0.3.2)
-pins jax < 0.5 and numpy < 2, and does not import with this project's JAX.
+- the hard (z-buffer) path against `jaxrenderer` 0.3.2, the JAX rasterizer on PyPI:
+  the 800-face pawn at 256x256 lit by one directional light, forward and forward +
+  backward (mean colour, with respect to the vertices), both jitted. jaxrenderer pins
+  jax < 0.5 and numpy < 2, so it runs in a pinned venv of its own
+  (`.venv-anchors/jaxrenderer`, made by `make anchors`, which `make bench` runs), in a
+  subprocess after our timings; the silhouettes' IoU shows that both drew the same view.
 """
 
 from __future__ import annotations
 
+import json
 import math
+import pathlib
+import subprocess
+import tempfile
 import time
 
 import jax
@@ -29,6 +37,9 @@ from gfxlab import render as R
 from gfxlab import transforms as tf
 from gfxlab.mesh import Mesh, pawn, read_obj, shipped_model_path
 from gfxlab.viewing import Camera
+
+ANCHOR_PYTHON = pathlib.Path(__file__).parents[2] / ".venv-anchors/jaxrenderer/bin/python"
+ANCHOR_SCRIPT = pathlib.Path(__file__).parent / "anchors/jaxrenderer.py"
 
 SHAPE = (256, 256)
 SIGMA, GAMMA = 1.0, 0.05
@@ -95,6 +106,74 @@ def random_scene(faces: int, coverage: float = 0.5, seed: int = 0):
     return Mesh(jnp.asarray(vertices), jnp.arange(3 * faces).reshape(faces, 3), colors), camera
 
 
+def hard_path_rows() -> None:
+    """Our hard path against jaxrenderer's on the pawn (see the module docstring)."""
+    table = Table("hard render (z-buffer), 256x256, float32, jitted", "jaxrenderer 0.3.2")
+    model, _, _ = pose_problem()
+    eye, target = np.array([0.0, 1.0, 5.0]), np.array([0.0, 1.0, 0.0])
+    camera = Camera(jnp.asarray(eye), jnp.asarray(target), fov_y=0.6, near=1.0, far=20.0)
+    light = R.DirectionalLight(jnp.array([0.0, 0.0, 1.0]))
+    capacity = R.tile_capacity(model, camera, SHAPE, sigma=SIGMA)
+
+    def rendering(vertices):
+        return R.render(
+            model, camera, SHAPE, vertices=vertices, mode="hard", lights=[light], capacity=capacity
+        )
+
+    forward = jax.jit(lambda v: rendering(v).color)
+    step = jax.jit(jax.value_and_grad(lambda v: jnp.mean(rendering(v).color)))
+    t_forward = timeit(lambda: forward(model.vertices), repeat=5)
+    t_step = timeit(lambda: step(model.vertices), repeat=3)
+    ours = np.asarray(jax.jit(lambda v: rendering(v).alpha)(model.vertices)) > 0.5
+    label = f"{model.num_faces}-face pawn, one directional light"
+    if not ANCHOR_PYTHON.exists():
+        table.add(f"{label}, forward", t_forward, None, "anchor not installed: `make anchors`")
+        table.add(f"{label}, forward + backward", t_step, None)
+        table.print()
+        return
+    with tempfile.TemporaryDirectory() as tmp:
+        scene = pathlib.Path(tmp) / "scene.npz"
+        image = pathlib.Path(tmp) / "image.npy"
+        np.savez(
+            scene,
+            shape=np.array(SHAPE),
+            vertices=np.asarray(model.vertices),
+            faces=np.asarray(model.faces),
+            normals=np.asarray(model.vertex_normals()),
+            color=np.asarray(model.colors[0]),
+            fov_y=0.6,
+            near=1.0,
+            far=20.0,
+            eye=eye,
+            target=target,
+            up=np.array([0.0, 1.0, 0.0]),
+        )
+        run = subprocess.run(
+            [str(ANCHOR_PYTHON), str(ANCHOR_SCRIPT), str(scene), str(image)],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        if run.returncode != 0:
+            table.add(f"{label}, forward", t_forward, None, "jaxrenderer failed, see below")
+            table.print()
+            print(run.stderr[-2000:])
+            return
+        times = json.loads(run.stdout.strip().splitlines()[-1])
+        theirs = np.any(np.abs(np.load(image) - 1.0) > 1e-6, axis=-1)  # white background
+    iou = np.count_nonzero(ours & theirs) / np.count_nonzero(ours | theirs)
+    table.add(
+        f"{label}, forward",
+        t_forward,
+        times["forward"],
+        f"silhouette IoU {iou:.3f}; jaxrenderer's first call {times['first']:.1f} s "
+        f"(jax {times['jax']})",
+    )
+    table.add(f"{label}, forward + backward (vertices)", t_step, times["step"])
+    table.print()
+    print(flush=True)
+
+
 def main() -> None:
     table = Table("render, 256x256, float32, forward + backward", "dense SoftRas formula")
     model, capacity, loss = pose_problem()
@@ -143,6 +222,7 @@ def main() -> None:
     )
     table.print()
     print(flush=True)
+    hard_path_rows()
 
 
 if __name__ == "__main__":
