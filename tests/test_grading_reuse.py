@@ -14,7 +14,7 @@ import sys
 import pytest
 from grading_attacks.attacks import write_notebook
 
-from gfxlab.grading import Limits, Sandbox, assign, codec, reuse
+from gfxlab.grading import Autograder, Limits, Sandbox, assign, codec, reuse
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 SOURCE = ROOT / "labs/assignments/03_bezier.ipynb"
@@ -348,3 +348,31 @@ def test_modules_written_at_run_time_are_hatches_and_debug_lines_are_not():
     # A lookup inside the forbidden code could reach anything: 0 points.
     sneaky = [*honest, "def bezier_point(c, u):\n    return globals()['de_casteljau'](c, u)"]
     assert {v.function: v for v in reuse.plan(sneaky, RULES)}["de_casteljau"].hatch
+
+
+def test_second_sandboxes_are_launched_ahead_used_and_closed(tmp_path, monkeypatch):
+    grader = Autograder(assign(SOURCE, tmp_path / "a", verify_tests=False).autograder)
+    reference = grader.solution_cells()
+    launched, served = [], []
+    real_launch, real_session = reuse.launch_ahead, grader.session
+
+    def launch_ahead(*args, **kwargs):
+        launched.append(real_launch(*args, **kwargs))
+        return launched[-1]
+
+    def session(*args, sandbox=None, **kwargs):
+        served.append(sandbox)
+        return real_session(*args, sandbox=sandbox, **kwargs)
+
+    monkeypatch.setattr(reuse, "launch_ahead", launch_ahead)
+    monkeypatch.setattr(grader, "session", session)
+    assert grader.grade_cells(reference).score == 15
+    # One per rule, each serving one second sandbox, every one stopped at the end.
+    assert [len(batch) for batch in launched] == [len(RULES)]
+    assert served[1:] == launched[0] and served[0] is None
+    assert all(not sandbox.launched for sandbox in launched[0])
+    # A notebook the static step cannot check (exec) launches nothing ahead.
+    launched.clear()
+    hatch = [*reference, "exec('x = 1')"]
+    assert grader.grade_cells(hatch).score < 15
+    assert launched == [[]]

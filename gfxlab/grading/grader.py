@@ -418,14 +418,19 @@ class Autograder:
             self._spare.close()
             self._spare = None
 
-    def session(self, cells, limits=None, numbers=None) -> StudentSession:
-        """A `StudentSession` running `cells` under this assignment's limits and config."""
+    def new_sandbox(self, limits=None) -> Sandbox:
+        """A `Sandbox` (not started) under this assignment's limits and config."""
+        return Sandbox(self.limits(limits), **self._sandbox_options())
+
+    def session(self, cells, limits=None, numbers=None, *, sandbox=None) -> StudentSession:
+        """A `StudentSession` running `cells` under this assignment's limits and config,
+        in `sandbox` (from `new_sandbox`, perhaps launched) or else the spare, if any."""
         limits = self.limits(limits)
         return StudentSession(
             cells,
             limits,
             numbers=numbers,
-            sandbox=self._take_spare(limits),
+            sandbox=sandbox or self._take_spare(limits),
             **self._sandbox_options(),
         )
 
@@ -439,12 +444,15 @@ class Autograder:
         prot = require_confinement()
         started = time.perf_counter()
         session = self.session(cells, limits, numbers)
+        verdicts = [] if public_only else reuse.pending(self, cells)
+        ahead = []
         results = []
         try:
             try:
                 session.start()
             except StudentCallError as exc:  # cannot start at all: every test fails, we go on
                 session._note(str(exc))
+            ahead = reuse.launch_ahead(self, verdicts, limits)
             # Every public test before any hidden one: a public test's feedback shows what
             # the student's code returns or raises, which must not carry hidden inputs kept
             # from an earlier hidden call in the same process.
@@ -452,7 +460,12 @@ class Autograder:
             # The `separate` rules' second sandboxes, before any hidden call here (see
             # `reuse.rerun`); this session's budget does not run meanwhile.
             paused = time.monotonic()
-            reruns = [] if public_only else reuse.rerun(self, cells, limits)
+            reruns = (
+                []
+                if public_only
+                else reuse.rerun(self, cells, limits, verdicts=verdicts, sandboxes=ahead)
+            )
+            ahead = []
             session.deadline += time.monotonic() - paused
             grade_hidden = [] if public_only else self.questions
             hidden = [self._grade_question(q, session, "hidden") for q in grade_hidden]
@@ -462,6 +475,8 @@ class Autograder:
                 results.append(QuestionResult(q.name, q.points, tests))
         finally:
             session.close()
+            for sandbox in ahead:  # not reached `rerun`
+                sandbox.close()
         error = session.infrastructure_error
         if not public_only:
             notes, staff_notes, reuse_error = reuse.enforce(results, reruns)
