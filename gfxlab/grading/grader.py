@@ -418,13 +418,8 @@ class Autograder:
             self._spare.close()
             self._spare = None
 
-    def new_sandbox(self, limits=None) -> Sandbox:
-        """A `Sandbox` (not started) under this assignment's limits and config."""
-        return Sandbox(self.limits(limits), **self._sandbox_options())
-
     def session(self, cells, limits=None, numbers=None, *, sandbox=None) -> StudentSession:
-        """A `StudentSession` running `cells` under this assignment's limits and config,
-        in `sandbox` (from `new_sandbox`, perhaps launched) or else the spare, if any."""
+        """A `StudentSession` running `cells` (in `sandbox`, else the spare, if any)."""
         limits = self.limits(limits)
         return StudentSession(
             cells,
@@ -437,16 +432,12 @@ class Autograder:
     def grade_cells(
         self, cells, *, label="submission", limits=None, public_only=False, numbers=None
     ) -> GradeResult:
-        """Grade a list of code-cell sources (the student's code) in the sandbox.
-
-        All public tests run before any hidden test.
-        """
+        """Grade a list of code-cell sources (the student's code) in the sandbox; all
+        public tests run before any hidden test."""
         prot = require_confinement()
         started = time.perf_counter()
         session = self.session(cells, limits, numbers)
-        verdicts = [] if public_only else reuse.pending(self, cells)
-        ahead = []
-        results = []
+        verdicts, ahead, results = [] if public_only else reuse.pending(self, cells), [], []
         try:
             try:
                 session.start()
@@ -460,12 +451,7 @@ class Autograder:
             # The `separate` rules' second sandboxes, before any hidden call here (see
             # `reuse.rerun`); this session's budget does not run meanwhile.
             paused = time.monotonic()
-            reruns = (
-                []
-                if public_only
-                else reuse.rerun(self, cells, limits, verdicts=verdicts, sandboxes=ahead)
-            )
-            ahead = []
+            reruns = [] if public_only else reuse.rerun(self, cells, limits, verdicts, ahead)
             session.deadline += time.monotonic() - paused
             grade_hidden = [] if public_only else self.questions
             hidden = [self._grade_question(q, session, "hidden") for q in grade_hidden]
@@ -475,7 +461,7 @@ class Autograder:
                 results.append(QuestionResult(q.name, q.points, tests))
         finally:
             session.close()
-            for sandbox in ahead:  # not reached `rerun`
+            for sandbox in ahead:  # those `rerun` did not reach (closing twice is harmless)
                 sandbox.close()
         error = session.infrastructure_error
         if not public_only:

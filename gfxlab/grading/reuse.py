@@ -35,6 +35,8 @@ import itertools
 import secrets
 import sys
 
+from gfxlab.grading.sandbox import Sandbox
+
 # Code the AST cannot see (built from strings, loaded from files or bytes, imported from
 # modules the notebook writes or puts on the path): such a notebook cannot be checked and
 # the question scores 0.
@@ -419,7 +421,7 @@ def launch_ahead(grader, verdicts, limits=None) -> list:
     wanted = sum(1 for verdict, _ in verdicts if not verdict.hatch)
     launched = []
     for _ in range(wanted):
-        sandbox = grader.new_sandbox(limits)
+        sandbox = Sandbox(grader.limits(limits), **grader._sandbox_options())
         try:
             sandbox.launch()
         except Exception:  # no sandbox here: `rerun` starts its own and reports it
@@ -430,7 +432,7 @@ def launch_ahead(grader, verdicts, limits=None) -> list:
 
 
 def rerun(
-    grader, cells, limits=None, *, verdicts=None, sandboxes=()
+    grader, cells, limits=None, verdicts=None, sandboxes=()
 ) -> list[tuple[Verdict, int, set[str] | None]]:
     """The second step for every rule: each rule's question graded again without the
     forbidden code (`check_cells`), in a second sandbox, public tests first.
