@@ -6,6 +6,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import warnings
 
 import jax
 import jax.numpy as jnp
@@ -317,6 +318,22 @@ def test_an_explicit_capacity_that_overflows_is_grown_eagerly_with_a_warning():
     with pytest.warns(RuntimeWarning, match="recompiling"):
         grown = R.render(mesh, one, (9, 9), mode="hard", capacity=1)
     np.testing.assert_array_equal(grown.color, R.render(mesh, one, (9, 9), mode="hard").color)
+
+
+def test_tile_capacity_for_the_hard_path_is_sigma_none():
+    """`tile_capacity(..., sigma=None)` measures hard mode's bins (no soft margin):
+    enough for a hard render, which then runs without growing, and no more than a soft
+    sigma's count; its options are still checked."""
+    mesh, _ = batched_views()
+    one = Camera(jnp.asarray(EYES[0]), near=0.5, far=5.0)
+    hard = R.tile_capacity(mesh, one, (9, 9), sigma=None)
+    assert 1 <= hard <= R.tile_capacity(mesh, one, (9, 9), sigma=4.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a capacity that overflows would warn
+        fitted = R.render(mesh, one, (9, 9), mode="hard", capacity=hard)
+    np.testing.assert_array_equal(fitted.color, R.render(mesh, one, (9, 9), mode="hard").color)
+    with pytest.raises(ValueError, match="tile_size"):
+        R.tile_capacity(mesh, one, (9, 9), sigma=None, tile_size=0)
 
 
 def test_sharded_views_equal_unsharded(tmp_path):

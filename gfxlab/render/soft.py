@@ -247,25 +247,41 @@ def tile_capacity(
     camera: Camera,
     shape: tuple[int, int],
     *,
-    sigma,
+    sigma: float | Float[Array, ""] | None,
     eps: float = 1e-4,
     tile_size: int = 8,
     slack: float = 1.0,
 ) -> int:
     """The tile capacity a render of `mesh` by `camera` needs (call it outside `jax.jit`).
 
-    Counts the largest number of faces whose grown bounding box reaches one tile,
-    multiplies by `slack` (>= 1; room for the geometry to move during a fit) and rounds
-    up to one of four steps per octave (8, 10, 12, 14, 16, 20, ...; at most the number of
-    faces). `camera` may be batched.
+    Counts the largest number of faces whose bounding box, grown by the soft margin,
+    reaches one tile, multiplies by `slack` (>= 1; room for the geometry to move during a
+    fit) and rounds up to one of four steps per octave (8, 10, 12, 14, 16, 20, ...; at
+    most the number of faces). `camera` may be batched.
+
+    **Arguments:**
+
+    - `mesh`, `camera`, `shape`: as in `render`.
+    - `sigma`: the `sigma` of the soft render the capacity is for; `None` for
+      `render(..., mode="hard")`, whose faces reach only the tiles their boxes touch (a
+      soft sigma there over-counts).
+    - `eps`, `tile_size`: as in the render (soft only: `eps`).
+    - `slack`: a factor >= 1 on the count.
+
+    **Returns:** the capacity, an `int`.
     """
     _, camera, batched, _ = check_render_inputs(mesh, camera, None, None)
     height, width = static_shape(shape)
     if not isinstance(slack, float | int) or not slack >= 1:
         raise ValueError(f"`slack` must be a number >= 1, got {slack!r}")
-    sigma = as_float(sigma, "sigma").astype(mesh.vertices.dtype)
-    check_shape(sigma, "sigma", ())
-    sigma, tile_size, _, _ = check_options(sigma, eps, tile_size, None, 1)
+    if sigma is None:  # hard mode: no soft margin; the other options are still checked
+        _, tile_size, _, _ = check_options(
+            jnp.ones((), mesh.vertices.dtype), eps, tile_size, None, 1
+        )
+    else:
+        sigma = as_float(sigma, "sigma").astype(mesh.vertices.dtype)
+        check_shape(sigma, "sigma", ())
+        sigma, tile_size, _, _ = check_options(sigma, eps, tile_size, None, 1)
     with jax.ensure_compile_time_eval():  # concrete geometry inside a user's jit
         needed = measured_tile_count(
             mesh.vertices,

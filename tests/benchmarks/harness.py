@@ -13,8 +13,9 @@ from collections.abc import Callable
 import jax
 
 
-def timeit(fn: Callable[[], object], *, repeat: int = 5, warmup: int = 1) -> float:
-    """Median wall time in seconds of `fn()`, blocking on JAX results."""
+def samples(fn: Callable[[], object], *, repeat: int = 5, warmup: int = 1) -> list[float]:
+    """Wall times in seconds of `repeat` calls of `fn()` after `warmup`, blocking on JAX
+    results."""
     for _ in range(warmup):
         jax.block_until_ready(fn())
     times = []
@@ -22,7 +23,12 @@ def timeit(fn: Callable[[], object], *, repeat: int = 5, warmup: int = 1) -> flo
         start = time.perf_counter()
         jax.block_until_ready(fn())
         times.append(time.perf_counter() - start)
-    return statistics.median(times)
+    return times
+
+
+def timeit(fn: Callable[[], object], *, repeat: int = 5, warmup: int = 1) -> float:
+    """Median wall time in seconds of `fn()`, blocking on JAX results."""
+    return statistics.median(samples(fn, repeat=repeat, warmup=warmup))
 
 
 def timeit_pair(
