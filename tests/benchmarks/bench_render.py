@@ -38,7 +38,7 @@ import time
 import jax
 import jax.numpy as jnp
 import numpy as np
-from harness import Table, samples, timeit
+from harness import Table, samples, timeit, timeit_pair
 
 from gfxlab import render as R
 from gfxlab import transforms as tf
@@ -294,8 +294,8 @@ def pose_step_row(table: Table, shape) -> None:
     angle = jnp.float32(0.1)
     forward = jax.jit(loss)
     step = jax.jit(jax.value_and_grad(loss))
-    t_fwd = timeit(lambda: forward(angle), repeat=5)
-    t_step = timeit(lambda: step(angle), repeat=5)
+    # alternately, so that the backward / forward ratio sees one machine state
+    t_fwd, t_step = timeit_pair(lambda: forward(angle), lambda: step(angle), repeat=15)
     dense = jax.jit(jax.value_and_grad(lambda a: loss(a, binned=False)))
     ref_value, ref_grad = jax.block_until_ready(dense(angle))  # compiles
     t_dense = timeit(lambda: dense(angle), repeat=3, warmup=0)
