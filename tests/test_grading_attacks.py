@@ -139,6 +139,7 @@ def _special_submissions(folder, autograder):
     odd.write_text(json.dumps(nb))
     (folder / "huge.ipynb").write_text('{"cells": [], "x": "' + "A" * (20 * 2**20) + '"}')
     (folder / "garbage.ipynb").write_bytes(b"\x00\xff{not json")
+    (folder / "not_a_notebook.ipynb").write_text("[1, 2]")  # JSON, but not a notebook
     write_notebook(reference, folder / os.fsdecode(b"bad-\xff-name\n.ipynb"))
     os.mkfifo(folder / "fifo.ipynb")  # would block a reader forever
     os.symlink("/etc/passwd", folder / "link.ipynb")
@@ -365,6 +366,12 @@ def test_every_attack_scores_only_its_honest_part(graded):
     assert "PROCMEM Read-only file system / Read-only file system" in feedback["proc_mem_write"]
     assert "`skimage` is not allowed in this assignment" in json.dumps(results["forbidden_library"])
     assert "NATIVE []" in feedback["native_code"], feedback["native_code"]
+    # The base Python's packages exist on this host (a venv's base has at least pip), and
+    # the sandbox shows none of them.
+    from gfxlab.grading._host import unused_site_dirs
+
+    assert any(any(d.iterdir()) for d in unused_site_dirs()), unused_site_dirs()
+    assert "BASESITE []" in feedback["base_site_packages"], feedback["base_site_packages"]
     assert "the reply" in feedback["hash_bomb"] or "dict keys" in feedback["hash_bomb"], feedback[
         "hash_bomb"
     ]
@@ -385,7 +392,7 @@ def test_file_names_metadata_and_size(graded):
     ]
     assert (out / "summary.csv").is_file()
     rows = {r["submission"]: r for r in summary}
-    assert len(rows) == len(graded["names"]) + 9
+    assert len(rows) == len(graded["names"]) + 10
     assert float(rows["bad- -name .ipynb"]["total"]) == 15
     for name in ("fifo.ipynb", "link.ipynb"):
         assert float(rows[name]["total"]) == 0 and "not a regular file" in rows[name]["notes"]
@@ -400,6 +407,10 @@ def test_file_names_metadata_and_size(graded):
         assert float(rows[label]["total"]) == 15, (label, rows[label])
     assert float(rows["huge.ipynb"]["total"]) == 0 and "too large" in rows["huge.ipynb"]["notes"]
     assert float(rows["garbage.ipynb"]["total"]) == 0
+    # The reason names the file, never the instructor's folders.
+    notes = rows["not_a_notebook.ipynb"]["notes"]
+    assert "not_a_notebook.ipynb is not a Jupyter notebook" in notes, notes
+    assert str(graded["tmp"]) not in json.dumps([results, summary])
     assert all(r["grading_error"] == "" for r in summary)
     assert len({r["folder"] for r in summary}) == len(summary)
 

@@ -1,7 +1,8 @@
 """Host-side helpers of the sandbox: paths, bubblewrap, cgroups, processes.
 
-Which host paths the student process needs and where they appear inside it, the module
-files a forbidden module stands for (found without importing anything), the bwrap
+Which host paths the student process needs and where they appear inside it (and which
+package folders of the base installation it must not see), the module files a forbidden
+module stands for (found without importing anything), the bwrap
 binary, a delegated cgroup v2 subtree, and the process-tree measures the grader uses
 when there is no cgroup (`_tree_usage`, `_tasks_of`).
 """
@@ -41,6 +42,37 @@ def _runtime_paths() -> list[pathlib.Path]:
             pathlib.Path(os.path.realpath(sys.base_prefix)),
             pathlib.Path(os.path.realpath(sys.prefix)),
         }
+    )
+
+
+# Where Python installations keep packages, relative to their prefix (CPython's own
+# layout, Debian's dist-packages, pip's /usr/local).
+_SITE_PATTERNS = (
+    "lib*/python3*/site-packages",
+    "lib*/python3*/dist-packages",
+    "lib*/python3/dist-packages",
+    "local/lib*/python3*/*-packages",
+)
+
+
+def unused_site_dirs() -> list[pathlib.Path]:
+    """Package folders of the base Python installation that the worker does not use (a
+    venv's base interpreter's own site-packages, a distribution's dist-packages).
+
+    The whole installation is bound for its standard library, but a package there that
+    the worker's `sys.path` does not reach could still be loaded by its file path (a
+    forbidden library's second copy, a foreign-function interface): the sandbox puts an
+    empty folder over each of these. Folders on `sys.path`, or holding the environment
+    or gfxlab, are kept.
+    """
+    base = pathlib.Path(os.path.realpath(sys.base_prefix))
+    keep = {pathlib.Path(os.path.realpath(p)) for p in sys.path if p}
+    keep |= {pathlib.Path(os.path.realpath(sys.prefix)), _PACKAGE}
+    found = {
+        pathlib.Path(os.path.realpath(d)) for pattern in _SITE_PATTERNS for d in base.glob(pattern)
+    }
+    return sorted(
+        d for d in found if d.is_dir() and not any(k == d or d in k.parents for k in keep)
     )
 
 

@@ -555,8 +555,9 @@ class Autograder:
             notebook = authoring.read_notebook(path)
             cells = authoring.student_code_cells(notebook)
             numbers = authoring.student_code_cell_numbers(notebook)
-        except Exception as exc:  # unreadable notebook: zero, with the reason
-            return self.empty_result(label, f"could not read the notebook: {_bounded(exc, 300)}")
+        except Exception as exc:  # unreadable notebook: zero, with the reason (no host path)
+            reason = str(exc).replace(str(path), path.name)
+            return self.empty_result(label, f"could not read the notebook: {_bounded(reason, 300)}")
         return self.grade_cells(cells, label=label, numbers=numbers, **kwargs)
 
 

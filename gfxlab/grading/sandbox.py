@@ -62,6 +62,7 @@ from ._host import (
     make_cgroup,
     remove_cgroup,
     sandbox_path,
+    unused_site_dirs,
 )
 from ._host import ALWAYS_FORBIDDEN as ALWAYS_FORBIDDEN  # public here: hidden in every sandbox
 from ._policy import (
@@ -210,18 +211,17 @@ class Sandbox:
         return limits
 
     def _forbid_args(self) -> list[str]:
-        args = []
+        """Empty folders over the base Python's unused package folders; forbidden modules stubbed"""
+        stubs = pathlib.Path(self.workdir, "stubs")
+        for path in [stubs, stubs / "empty", stubs / "pkg"]:
+            path.mkdir(mode=0o755)
+            os.chmod(path, 0o755)
+        args = [a for d in unused_site_dirs() for a in ("--ro-bind", str(stubs / "empty"), str(d))]
         if not self.forbid:
             return args
-        stubs = pathlib.Path(self.workdir, "stubs")
-        stubs.mkdir(mode=0o755)
         text = f"raise ImportError({'this module is not allowed in this assignment'!r})\n"
-        (stubs / "stub.py").write_text(text)
-        (stubs / "pkg").mkdir(mode=0o755)
-        (stubs / "pkg" / "__init__.py").write_text(text)
-        for path in [stubs, stubs / "pkg"]:
-            os.chmod(path, 0o755)
         for path in [stubs / "stub.py", stubs / "pkg" / "__init__.py"]:
+            path.write_text(text)
             os.chmod(path, 0o644)
         for path, is_dir in forbidden_files(self.forbid):
             source = stubs / ("pkg" if is_dir else "stub.py")

@@ -608,6 +608,31 @@ def midpoint_circle_trace(r):
     raise RuntimeError("NATIVE " + repr(FOUND)[:300])
 """
 
+# The base interpreter's own packages (a venv's base Python keeps complete copies of
+# forbidden libraries and of a foreign-function interface there), loaded by file path:
+# the sandbox shows those folders empty.
+ATTACKS["base_site_packages"] = """
+import glob
+import os
+import sys
+
+
+def _listing():
+    base = os.path.realpath(sys.base_prefix)
+    if base == os.path.realpath(sys.prefix):
+        return ["not a venv"]
+    patterns = ("lib*/python3*/site-packages/*", "lib*/python3*/dist-packages/*",
+                "lib*/python3/dist-packages/*", "local/lib*/python3*/*-packages/*")
+    return [p for pattern in patterns for p in glob.glob(os.path.join(base, pattern))]
+
+
+FOUND = _listing()
+
+
+def midpoint_circle_trace(r):
+    raise RuntimeError("BASESITE " + repr(FOUND)[:300])
+"""
+
 # A cell's exception text that reads like the grader's own failure line: shown on one line
 # after "code cell N raised", never as a line of its own.
 ATTACKS["forged_grading_error"] = """
