@@ -453,6 +453,36 @@ def test_nan_ambient_is_an_error_lit_or_not_eagerly_and_under_jit():
             jax.block_until_ready(run(jnp.asarray(jnp.nan)).color)
 
 
+@pytest.mark.parametrize(
+    "eye, message",
+    [
+        ([0.0, 0.0, 0.0], "`camera.target` equals `camera.eye`"),
+        ([0.0, 3.0, 0.0], "`camera.up` must be non-zero and not parallel"),
+    ],
+)
+def test_undefined_camera_frame_is_an_error_under_jit_and_grad(eye, message):
+    """A traced camera cannot check its frame when it is made, and the compiled core
+    skips the camera's checks: `render` must, or the image is blank with zero gradients."""
+    vertices, faces, colors = tiny_scene()
+    mesh = Mesh(vertices, faces, colors)
+
+    def loss(e):
+        rendering = R.render(mesh, Camera(e, near=0.5, far=5.0), (8, 8), capacity=faces.shape[0])
+        return rendering.alpha.sum()
+
+    good = jnp.array([0.2, 0.1, 2.5])
+    assert float(jax.jit(loss)(good)) > 0
+    bad = jnp.array(eye)
+    for run in (jax.jit(loss), jax.jit(jax.grad(loss))):
+        with pytest.raises(Exception, match=message):
+            jax.block_until_ready(run(bad))
+    batched = jnp.stack([good, bad])
+    with pytest.raises(Exception, match=message):
+        jax.block_until_ready(jax.jit(jax.vmap(loss))(batched))
+    with pytest.raises(ValueError, match=message.replace("camera.", "")):  # eagerly, the camera
+        Camera(bad, near=0.5, far=5.0)
+
+
 def test_render_dense_bad_inputs():
     vertices, faces, colors = tiny_scene()
     mesh = Mesh(vertices, faces, colors)
