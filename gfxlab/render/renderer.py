@@ -437,8 +437,7 @@ def _pose_checked(vertices, camera: Camera):
     return value_error_if(
         vertices,
         jnp.any(safe_norm(jnp.cross(forward, up)) <= 1e-12 * safe_norm(up) * safe_norm(forward)),
-        "`camera.up` must be non-zero and not parallel to the viewing direction "
-        "`target - eye`",
+        "`camera.up` must be non-zero and not parallel to the viewing direction `target - eye`",
     )
 
 
