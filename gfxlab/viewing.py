@@ -426,7 +426,7 @@ class Camera(eqx.Module):
         if not is_traced((self.near, self.far)):
             _check_range(self.near, self.far, "near", "far")
         if self.rotation is None and not is_traced((self.eye, self.target, self.up)):
-            _check_pose(self.eye, self.target, self.up)
+            _pose_checked(self.target, self.eye, self.target, self.up)
 
     @classmethod
     def from_rotation(cls, eye, rotation, representation: str = "axis_angle", **lens) -> Camera:
@@ -482,14 +482,21 @@ _camera_project = checked_jit(lambda camera, points: tf.apply(camera.matrix(), p
 _camera_depth = checked_jit(lambda camera, points: -tf.apply(camera.view_matrix(), points)[..., 2])
 
 
-def _check_pose(eye, target, up) -> None:
-    """Raise `ValueError` for a camera frame that is not defined (concrete values)."""
-    forward = target - eye
-    value_error_if(
-        target, safe_norm(forward) == 0, "`target` equals `eye`: the viewing direction is undefined"
+def _pose_checked(x, eye, target, up, *, prefix: str = ""):
+    """`x`, tied to the checks of a camera frame `look_at(eye, target, up)`: a viewing
+    direction exists and `up` is off it (any batch shape; concrete values raise at once).
+
+    `prefix` names the fields' owner in the messages (`"camera."` in `render`, whose
+    compiled core skips the camera's own checks).
+    """
+    forward, up = jnp.broadcast_arrays(target - eye, up)
+    x = value_error_if(
+        x,
+        jnp.any(safe_norm(forward) == 0),
+        f"`{prefix}target` equals `{prefix}eye`: the viewing direction is undefined",
     )
-    value_error_if(
-        up,
-        safe_norm(jnp.cross(forward, up)) <= 1e-12 * safe_norm(up) * safe_norm(forward),
-        "`up` must be non-zero and not parallel to the viewing direction `target - eye`",
+    return value_error_if(
+        x,
+        jnp.any(safe_norm(jnp.cross(forward, up)) <= 1e-12 * safe_norm(up) * safe_norm(forward)),
+        f"`{prefix}up` must be non-zero and not parallel to the viewing direction `target - eye`",
     )

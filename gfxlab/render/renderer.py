@@ -34,12 +34,10 @@ from .._checks import (
     is_traced,
     safe_normalize,
     trusted_values,
-    value_error_if,
 )
 from .._pixels import pixel_centers
-from .._safe_math import safe_norm
 from ..mesh import Mesh, vertex_normals
-from ..viewing import Camera
+from ..viewing import Camera, _pose_checked
 from ._inputs import (
     RenderConfig,
     antialias_inputs,
@@ -403,8 +401,10 @@ def render(
         mesh, vertices, camera, batched, params[0], mode, shape, eps=eps, sizes=sizes, flags=flags
     )
     lights = _check_lights(lights)
-    if is_traced(camera):
-        vertices = _pose_checked(vertices, camera)
+    if is_traced(camera) and camera.rotation is None:
+        # The compiled core skips the camera's own checks (`trusted_values`), and a
+        # traced `Camera` cannot check its frame when made: tie them to the vertices.
+        vertices = _pose_checked(vertices, camera.eye, camera.target, camera.up, prefix="camera.")
     extras = (attributes, lights, brdf, ambient, background, params)
     result, max_count = _render_jit(mesh, vertices, camera, extras, config=config)
     if not is_traced(max_count) and capacity is not None:
@@ -415,30 +415,6 @@ def render(
             result, max_count = _render_jit(mesh, vertices, camera, extras, config=config)
     color = check_capacity(result.color, max_count, config.capacity, tile_size, mesh.num_faces)
     return eqx.tree_at(lambda r: r.color, result, color)
-
-
-def _pose_checked(vertices, camera: Camera):
-    """`vertices`, tied to the checks of a traced camera's `look_at` frame.
-
-    The compiled core skips the camera's own checks (`trusted_values`), and a `Camera`
-    built from traced values cannot check them when it is made: without this an
-    undefined frame (`target == eye`, `up` parallel to the view) renders a blank image
-    with zero gradients under `jit`.
-    """
-    if camera.rotation is not None:
-        return vertices
-    forward = camera.target - camera.eye
-    up = jnp.broadcast_to(camera.up, forward.shape)
-    vertices = value_error_if(
-        vertices,
-        jnp.any(safe_norm(forward) == 0),
-        "`camera.target` equals `camera.eye`: the viewing direction is undefined",
-    )
-    return value_error_if(
-        vertices,
-        jnp.any(safe_norm(jnp.cross(forward, up)) <= 1e-12 * safe_norm(up) * safe_norm(forward)),
-        "`camera.up` must be non-zero and not parallel to the viewing direction `target - eye`",
-    )
 
 
 _REFERENCE = contextvars.ContextVar("gfxlab_render_reference", default=False)
