@@ -401,9 +401,7 @@ def render(
         mesh, vertices, camera, batched, params[0], mode, shape, eps=eps, sizes=sizes, flags=flags
     )
     lights = _check_lights(lights)
-    if is_traced(camera) and camera.rotation is None:
-        # The compiled core skips the camera's own checks (`trusted_values`), and a
-        # traced `Camera` cannot check its frame when made: tie them to the vertices.
+    if is_traced(camera) and camera.rotation is None:  # the core skips a camera's checks
         vertices = _pose_checked(vertices, camera.eye, camera.target, camera.up, prefix="camera.")
     extras = (attributes, lights, brdf, ambient, background, params)
     result, max_count = _render_jit(mesh, vertices, camera, extras, config=config)
