@@ -19,6 +19,12 @@ arguments of the same structure, shapes and dtypes does not recompile. To differ
 through a solve, call `optimistix.least_squares`/`optimistix.minimise` directly (they are
 traceable).
 
+**Static sizes that run out.** A compiled step whose static size runs out while it
+runs (a `gfxlab.render` tile capacity, as a fitted mesh shrinks or turns) does not abort
+the fit: the size is grown, a `RuntimeWarning` says so, and the chunk of steps reruns
+from its start. A check inside `fn` that fails while the steps run (an `eqx.error_if`,
+e.g. a curve's control points became NaN) raises a `FitError` naming it and the steps.
+
 **Which leaves are fitted.** Floating-point array leaves of `params` are fitted; other
 leaves are held fixed. An `eqx.Module` in `params` may define a method
 `fixed_fields(self) -> tuple[str, ...]`: the fields it names are held fixed (e.g. a
@@ -45,7 +51,6 @@ from __future__ import annotations
 
 import functools
 import math
-import time
 import warnings
 from collections.abc import Callable
 from typing import Any
@@ -59,6 +64,7 @@ import optimistix as optx
 from jaxtyping import Array, Float, PyTree
 
 from ._checks import is_traced, static_bool, static_int
+from ._fit_loop import Progress, drive
 from ._fit_params import (
     DRIVER_MESSAGE,
     OUTER_TRACE_ERRORS,
@@ -297,7 +303,7 @@ def _keep_best(best, z, loss, step):
 
 
 @eqx.filter_jit
-def _optax_chunk(problem, optimizer, state, args, n):
+def _optax_chunk(problem, optimizer, state, args, n, generation):
     """`n` optax steps, scanned as `n + 1` evaluations of the loss and its gradient: the
     last one only gives the loss after the last step (its update is dropped). So `fn` is
     compiled once, inside the loop, not a second time after it (half the compile time of
@@ -337,7 +343,7 @@ def _solver_state(problem, solver, z, args, f_struct, least_squares, scalar):
 
 
 @eqx.filter_jit
-def _optimistix_chunk(problem, solver, state, args, f_struct, least_squares, scalar, n):
+def _optimistix_chunk(problem, solver, state, args, f_struct, least_squares, scalar, n, generation):
     """Up to `n` optimistix steps, stopping once the solver's stopping test holds; returns
     the state, `n` losses (the last one repeated past the stop), `n` "done" flags, and the
     loss at the start on the first call (else `None`).
@@ -379,51 +385,10 @@ def _optimistix_chunk(problem, solver, state, args, f_struct, least_squares, sca
 # ----------------------------------------------------------------------- the driver
 
 
-class _Progress:
-    """A one-line progress report that updates in place in a notebook or terminal."""
-
-    def __init__(self, enabled: bool, max_steps: int, method: str):
-        self.enabled = enabled
-        self.max_steps = max_steps
-        self.method = method
-        self.handle = None
-        self.start = time.perf_counter()
-
-    def update(self, step: int, loss: float, done: bool = False) -> None:
-        if not self.enabled:
-            return
-        text = (
-            f"{self.method}: step {step}/{self.max_steps}  loss {loss:.6g}  "
-            f"({time.perf_counter() - self.start:.1f} s){'  done' if done else ''}"
-        )
-        try:
-            from IPython import get_ipython
-            from IPython.display import display
-
-            if get_ipython() is not None:
-                if self.handle is None:
-                    self.handle = display({"text/plain": text}, raw=True, display_id=True)
-                else:
-                    self.handle.update({"text/plain": text}, raw=True)
-                return
-        except ImportError:
-            pass
-        print("\r" + text, end="\n" if done else "", flush=True)
-
-
-def _check_finite(losses, start_step: int, method: str) -> None:
-    bad = ~np.isfinite(np.asarray(losses))
-    if bad.any():
-        raise FitError(
-            f"the objective returned NaN or inf at step {start_step + int(np.argmax(bad))} of "
-            f"the {method!r} fit; check the residual function for divisions by zero, sqrt/log "
-            "of negative values, or a learning rate that is too large"
-        )
-
-
 def _runner(problem, method, z, args, scalar, f_struct, options):
-    """(name, initial state, run(state, args, n) -> (state, losses, dones, the loss at the
-    start or None after the first call), uses_solver_test)."""
+    """(name, initial state, run(state, args, n, generation) -> (state, losses, dones, the
+    loss at the start or None after the first call), uses_solver_test). `generation`
+    (`gfxlab._regrow`) is only part of the compile key: a grown static size retraces."""
     learning_rate, rtol, atol = options
     if method is None:
         method = "bfgs" if scalar else "levenberg_marquardt"
@@ -446,52 +411,12 @@ def _runner(problem, method, z, args, scalar, f_struct, options):
     best = (z, jnp.asarray(jnp.inf), jnp.asarray(0))
     state = (z, None, jnp.asarray(False), best, jnp.asarray(0))
 
-    def run(state, args, n):
-        return _optimistix_chunk(problem, solver, state, args, f_struct, least_squares, scalar, n)
+    def run(state, args, n, generation):
+        return _optimistix_chunk(
+            problem, solver, state, args, f_struct, least_squares, scalar, n, generation
+        )
 
     return name, state, run, True
-
-
-def _drive(run, state, args, max_steps, chunk_size, solver_test, name, bar):
-    """Run compiled chunks until `max_steps` or convergence; check each for NaN/inf.
-    Returns the state, the loss history (the initial loss first) and convergence."""
-    history, steps_done, converged = [], 0, False
-    while steps_done < max_steps:
-        n = min(chunk_size, max_steps - steps_done)
-        state, losses, dones, entry = run(state, args, n)
-        if not history:
-            history.append(_initial(entry, name, bar))
-        losses, dones = np.asarray(losses), np.asarray(dones)
-        if solver_test and dones.any():  # steps after convergence repeat the loss
-            losses, converged = losses[: int(np.argmax(dones)) + 1], True
-        losses, exact = _cut_at_exact_solution(losses, history)
-        converged = converged or exact
-        _check_finite(losses, steps_done + 1, name)
-        history.append(losses)
-        steps_done += int(losses.shape[0])
-        bar.update(steps_done, float(losses[-1]), done=converged or steps_done >= max_steps)
-        if converged:
-            break
-    return state, np.concatenate(history), converged
-
-
-def _cut_at_exact_solution(losses: np.ndarray, history: list) -> tuple[np.ndarray, bool]:
-    """The losses before the first NaN/inf that follows a loss of exactly 0, and whether
-    that happened. A Gauss-Newton step from an exact solution can divide 0 by 0 (the
-    Jacobian of `r**2` vanishes where `r = 0`): that is convergence, not a failing fit."""
-    bad = ~np.isfinite(losses)
-    if not bad.any():
-        return losses, False
-    first = int(np.argmax(bad))
-    before = losses[first - 1] if first else (history[-1][-1] if history else np.nan)
-    return (losses[:first], True) if before == 0 else (losses, False)
-
-
-def _initial(loss, name: str, bar: _Progress) -> np.ndarray:
-    loss = np.asarray(loss)[None]
-    _check_finite(loss, 0, name)
-    bar.update(0, float(loss[0]))
-    return loss
 
 
 def fit(
@@ -562,8 +487,8 @@ def fit(
         name, state, run, solver_test = _runner(problem, method, z, args, scalar, f_struct, options)
         if chunk_size is None:
             chunk_size = max(1, max_steps // 20) if progress else max_steps
-        bar = _Progress(progress, max_steps, name)
-        state, loss_history, converged = _drive(
+        bar = Progress(progress, max_steps, name)
+        state, loss_history, converged = drive(
             run, state, args, max_steps, min(chunk_size, max_steps), solver_test, name, bar
         )
         return _result(problem, z, state, loss_history, converged, name)

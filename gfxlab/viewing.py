@@ -489,6 +489,15 @@ def _pose_checked(x, eye, target, up, *, prefix: str = ""):
     `prefix` names the fields' owner in the messages (`"camera."` in `render`, whose
     compiled core skips the camera's own checks).
     """
+    shapes = [jnp.shape(v) for v in (eye, target, up)]
+    try:
+        jnp.broadcast_shapes(*shapes)
+    except ValueError:
+        names = ", ".join(f"`{prefix}{n}`" for n in ("eye", "target", "up"))
+        raise ValueError(
+            f"{names} must be (3,) vectors or batches of one size (B, 3), got shapes "
+            f"{shapes[0]}, {shapes[1]} and {shapes[2]}"
+        ) from None
     forward, up = jnp.broadcast_arrays(target - eye, up)
     x = value_error_if(
         x,

@@ -134,6 +134,27 @@ def test_nan_residual_raises_naming_the_step():
         fit(lambda p: jnp.sqrt(p), jnp.array([-1.0]))
 
 
+def test_a_check_inside_fn_failing_midway_is_a_fit_error_naming_it():
+    """Gauss-Newton on a B-spline whose control points all coincide, with its knots
+    fitted: the knots' Jacobian is zero, the undamped step is NaN and the curve's own
+    finiteness check fails inside the compiled steps. `fit` says so (its message, the
+    steps, a damped method to try), not equinox's runtime traceback."""
+    from gfxlab.curves import BSpline
+
+    u = jnp.linspace(0, 1, 20)
+    target = jnp.stack([jnp.cos(3 * u), jnp.sin(3 * u)], -1)
+    start = BSpline(jnp.zeros((6, 2)), 3, fit_knots=True)
+    with pytest.raises(
+        FitError,
+        match=r"steps 1-5 of the 'gauss_newton' fit: `control_points` "
+        r"must be finite.*levenberg_marquardt",
+    ) as caught:
+        fit(lambda c: c(u) - target, start, method="gauss_newton", max_steps=5)
+    assert "EQX_ON_ERROR" not in str(caught.value)
+    damped = fit(lambda c: c(u) - target, start, method="levenberg_marquardt", max_steps=5)
+    assert damped.loss < damped.loss_history[0]
+
+
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [

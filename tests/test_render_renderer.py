@@ -320,6 +320,51 @@ def test_an_explicit_capacity_that_overflows_is_grown_eagerly_with_a_warning():
     np.testing.assert_array_equal(grown.color, R.render(mesh, one, (9, 9), mode="hard").color)
 
 
+def test_batched_views_equal_single_views_with_lights_and_antialiasing():
+    """A symmetric sphere puts pixel pairs on faces that meet at one vertex, with equal
+    depths: float noise between a batched and a single render must not decide whether
+    the pair is blended. Only silhouette edges (boundaries, folds) are, by topology."""
+    ball = icosphere(2).with_colors(jnp.array([0.8, 0.5, 0.2]))
+    light = R.PointLight(jnp.array([2.0, 2.0, 2.0]), 10.0)
+    eyes = jnp.array([[0.0, 0.0, 4.0], [4.0, 0.0, 0.0]])
+    batched = R.render(ball, Camera(eyes), (32, 32), mode="hard", lights=light)
+    for k in range(2):
+        single = R.render(ball, Camera(eyes[k]), (32, 32), mode="hard", lights=light)
+        np.testing.assert_allclose(batched.color[k], single.color, atol=2e-5)
+        flat = R.render(ball, Camera(eyes[k]), (32, 32), mode="hard", lights=light, antialias=False)
+        blended = np.abs(np.asarray(single.color - flat.color)).max(-1) > 1e-6
+        inside = np.asarray(flat.alpha) > 0
+        interior = inside & np.roll(inside, 1, 0) & np.roll(inside, -1, 0)
+        interior &= np.roll(inside, 1, 1) & np.roll(inside, -1, 1)
+        assert blended.any() and not (blended & interior).any()  # silhouette pixels only
+
+
+def test_a_fit_whose_mesh_outgrows_its_capacity_grows_it_and_reruns():
+    """A fit that shrinks the mesh crowds the tiles past the capacity measured at the
+    start: `fit` grows the capacity (a warning says so), reruns the steps, and ends
+    where a fit with room for every face from the start ends; it never aborts."""
+    from gfxlab.fit import fit
+
+    ball, camera, shape = icosphere(1), Camera(jnp.array([0.0, 0.0, 4.0])), (16, 16)
+    target = R.render(ball.with_vertices(0.4 * ball.vertices), camera, shape).alpha
+    measured = R.tile_capacity(ball, camera, shape, sigma=1.0)
+
+    def loss(scale, capacity):
+        mesh = ball.with_vertices(scale * ball.vertices)
+        return jnp.sum((R.render(mesh, camera, shape, capacity=capacity).alpha - target) ** 2)
+
+    options = {"method": "adam", "learning_rate": 0.05, "max_steps": 25}
+    with pytest.warns(
+        RuntimeWarning,
+        match=rf"tile capacity {measured} was exceeded; "
+        r"recompiled with \d+; steps 1-25 were rerun",
+    ):
+        grown = fit(functools.partial(loss, capacity=measured), jnp.asarray(1.0), **options)
+    roomy = fit(functools.partial(loss, capacity=ball.num_faces), jnp.asarray(1.0), **options)
+    assert float(grown.params) < 0.6
+    np.testing.assert_allclose(grown.loss_history, roomy.loss_history, rtol=1e-5, atol=1e-6)
+
+
 def test_tile_capacity_for_the_hard_path_is_sigma_none():
     """`tile_capacity(..., sigma=None)` measures hard mode's bins (no soft margin):
     enough for a hard render, which then runs without growing, and no more than a soft
@@ -436,21 +481,108 @@ def test_bad_inputs():
         R.shard_cameras(camera)
 
 
-def test_nan_ambient_is_an_error_lit_or_not_eagerly_and_under_jit():
-    """The ambient term only reaches a lit image, but a NaN `ambient` is an error always
-    (under jit too: the check must not be dead code)."""
+def _scene_and(**options):
+    vertices, faces, colors = tiny_scene()
+    mesh = Mesh(vertices, faces, colors)
+    camera = options.pop("camera", Camera(jnp.array([0.2, 0.1, 2.5]), near=0.5, far=5.0))
+    return R.render(options.pop("mesh", mesh), camera, (8, 8), **options).color
+
+
+LIGHT = R.PointLight(jnp.array([2.0, 2.0, 2.0]), 1.0)
+
+
+@pytest.mark.parametrize(
+    ("options", "error", "message"),
+    [
+        ({"attributes": jnp.full((6, 2), jnp.nan)}, ValueError, "`attributes` must be finite"),
+        ({"cull_backfaces": 1}, TypeError, "`cull_backfaces` must be True or False"),
+        ({"antialias": "yes", "mode": "hard"}, TypeError, "`antialias` must be True or False"),
+        ({"eps_background": -1.0}, ValueError, "`eps_background` must be finite and > 0"),
+        ({"lights": LIGHT, "brdf": "ggx"}, TypeError, r"`brdf` must be a gfxlab.brdf model.*GGX"),
+        ({"lights": "sun"}, TypeError, "`lights` must be a PointLight"),
+        (
+            {"lights": R.PointLight(jnp.array([2.0, 2.0, 2.0]), jnp.ones(4))},
+            ValueError,
+            r"`lights\[0\].intensity` has 4 colour channels; the surface has 3",
+        ),
+        (
+            {"mesh": Mesh(jnp.zeros((3, 3)), jnp.zeros((0, 3), jnp.int32))},
+            ValueError,
+            "`mesh` has no faces",
+        ),
+    ],
+)
+def test_bad_options_are_named(options, error, message):
+    with pytest.raises(error, match=message):
+        _scene_and(**options)
+
+
+def test_shade_and_mesh_name_mismatched_channels_and_shapes():
+    with pytest.raises(ValueError, match=r"`albedo`, `normal` and `position` must have one batch"):
+        R.shade(
+            jnp.ones((4, 4, 3)),
+            jnp.ones((4, 5, 3)),
+            jnp.ones((4, 4, 3)),
+            jnp.zeros(3),
+            lights=LIGHT,
+        )
+    with pytest.raises(ValueError, match=r"`lights\[0\].intensity` has 2 colour channels"):
+        R.shade(
+            jnp.ones((2, 3)),
+            jnp.ones((2, 3)),
+            jnp.ones((2, 3)),
+            jnp.zeros(3),
+            lights=R.DirectionalLight(jnp.ones(3), jnp.ones(2)),
+        )
+    with pytest.raises(ValueError, match="`ambient` must be finite and >= 0"):
+        R.shade(
+            jnp.ones((2, 3)),
+            jnp.ones((2, 3)),
+            jnp.ones((2, 3)),
+            jnp.zeros(3),
+            lights=LIGHT,
+            ambient=-0.1,
+        )
+    with pytest.raises(ValueError, match=r"`eye`, `target`, `up` must be \(3,\) vectors or "):
+        Camera(jnp.array([[0.0, 0.0, 4.0], [0.0, 0.0, 5.0]]), jnp.zeros((3, 3)))
+    vertices, faces, _ = tiny_scene()
+    with pytest.raises(ValueError, match="`texture` has 4 colour channels and `colors` 3"):
+        Mesh(
+            vertices,
+            faces,
+            colors=jnp.full((6, 3), 0.5),
+            uvs=jnp.zeros((6, 2)),
+            uv_faces=faces,
+            texture=jnp.ones((2, 2, 4)),
+        )
+
+
+def test_ambient_is_finite_non_negative_and_for_lit_renders_only():
+    """A NaN or negative `ambient` is an error, eagerly and under jit (the check must not
+    be dead code); an unlit render (`lights=None`) ignores no ambient term silently: any
+    ambient but a concrete 0 is refused, naming `lights=`."""
     vertices, faces, colors = tiny_scene()
     mesh = Mesh(vertices, faces, colors)
     camera = Camera(jnp.array([0.2, 0.1, 2.5]), near=0.5, far=5.0)
     light = R.DirectionalLight([0.0, 0.0, 1.0])
-    for lights in (None, light):
-        with pytest.raises(ValueError, match="`ambient` must be finite"):
-            R.render(mesh, camera, (8, 8), lights=lights, ambient=jnp.nan)
-        run = jax.jit(
-            lambda a, lights=lights: R.render(mesh, camera, (8, 8), lights=lights, ambient=a)
-        )
-        with pytest.raises(Exception, match="`ambient` must be finite"):
-            jax.block_until_ready(run(jnp.asarray(jnp.nan)).color)
+    for bad in (jnp.nan, -0.5):
+        with pytest.raises(ValueError, match="`ambient` must be finite and >= 0"):
+            R.render(mesh, camera, (8, 8), lights=light, ambient=bad)
+        run = jax.jit(lambda a: R.render(mesh, camera, (8, 8), lights=light, ambient=a))
+        with pytest.raises(Exception, match="`ambient` must be finite and >= 0"):
+            jax.block_until_ready(run(jnp.asarray(bad)).color)
+    for ambient in (0.3, jnp.array([0.1, 0.0, 0.0])):
+        with pytest.raises(ValueError, match="`ambient` shades lit renders only.*`lights=`"):
+            R.render(mesh, camera, (8, 8), ambient=ambient)
+    with pytest.raises(ValueError, match="`ambient` shades lit renders only"):
+        jax.jit(lambda a: R.render(mesh, camera, (8, 8), ambient=a).color)(0.0)
+    with pytest.raises(ValueError, match="`brdf` shades lit renders only"):
+        R.render(mesh, camera, (8, 8), brdf=B.Lambert())
+    unlit = R.render(mesh, camera, (8, 8), ambient=jnp.zeros(3)).color
+    np.testing.assert_array_equal(unlit, R.render(mesh, camera, (8, 8)).color)
+    lit = R.render(mesh, camera, (8, 8), lights=light, ambient=0.5).color
+    dark = R.render(mesh, camera, (8, 8), lights=light).color
+    np.testing.assert_allclose(lit - dark, 0.5 * R.render(mesh, camera, (8, 8)).color, atol=1e-5)
 
 
 @pytest.mark.parametrize(

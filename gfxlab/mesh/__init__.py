@@ -296,6 +296,15 @@ class Mesh(eqx.Module):
         _check_indexed(self, "normals", "normal_faces")
         if self.texture is not None and self.uvs is None:
             raise ValueError("a `texture` needs texture coordinates `uvs` and `uv_faces`")
+        if (
+            self.texture is not None
+            and self.colors is not None
+            and self.texture.shape[-1] != self.colors.shape[-1]
+        ):
+            raise ValueError(
+                f"`texture` has {self.texture.shape[-1]} colour channels and `colors` "
+                f"{self.colors.shape[-1]}: the render multiplies them, so they need one count"
+            )
         if self.texture is not None and 0 in self.texture.shape:
             raise ValueError(
                 f"`texture` must hold at least one texel, got shape {self.texture.shape}"

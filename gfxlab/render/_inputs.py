@@ -18,6 +18,7 @@ from .._checks import (
     check_shape,
     is_traced,
     positive,
+    static_bool,
     static_shape,
     value_error_if,
 )
@@ -25,6 +26,7 @@ from ..mesh import check_faces
 from ..viewing import Camera
 from ._project import check_mesh_camera, measured_tile_count
 from ._tiles import any_traced, check_options, resolve_capacity
+from .shading import _check_lights, check_brdf
 
 
 class RenderConfig(NamedTuple):
@@ -61,6 +63,8 @@ def batched_camera(camera: Camera, batch: int) -> Camera:
 
 def check_render_inputs(mesh, camera, vertices, attributes):
     check_mesh_camera(mesh, camera)
+    if mesh.num_faces == 0:
+        raise ValueError("`mesh` has no faces: there is nothing to render")
     if vertices is None:
         vertices = mesh.vertices
     else:
@@ -102,6 +106,7 @@ def check_render_inputs(mesh, camera, vertices, attributes):
     if attributes is not None:
         attributes = as_float(attributes, "attributes")
         check_shape(attributes, "attributes", (mesh.num_vertices, None))
+        attributes = check_finite(attributes, "attributes")
     return vertices, camera, batched, attributes
 
 
@@ -145,21 +150,35 @@ def render_options(mesh, dtype, sigma, gamma, ambient, background, eps, eps_back
         )
     # Every rendering uses the background but only a lit one the ambient term: the
     # ambient check rides on the background, so that it is never dead code under jit.
-    background = _finite_alongside(background, ambient, "ambient")
+    background = _checked_alongside(background, ambient, "ambient")
     eps_background = _float_option(eps_background, "eps_background", dtype)
     check_shape(eps_background, "eps_background", ())
-    eps_background = check_finite(eps_background, "eps_background")
+    eps_background = positive(eps_background, "eps_background")
     return (sigma, gamma, eps_background), ambient, background, tuple(sizes)
 
 
-def _finite_alongside(x, other, name: str):
-    """`x`, after checking that `other` holds no NaN or inf: eagerly at once, under `jit`
+def _checked_alongside(x, other, name: str):
+    """`x`, after checking that `other` is finite and >= 0: eagerly at once, under `jit`
     through `x` (so the check runs whenever `x` is used)."""
-    if not is_traced(other):
-        check_finite(other, name)
-        return x
-    bad = ~jnp.all(jnp.isfinite(other))
-    return value_error_if(x, bad, f"`{name}` must be finite (no NaN or inf)")
+    bad = ~jnp.all(jnp.isfinite(other) & (other >= 0))
+    return value_error_if(x, bad, f"`{name}` must be finite and >= 0")
+
+
+def check_shading(lights, brdf, ambient, channels: int):
+    """`render`'s shading options: `(lights, brdf)` checked (`lights=None`: unlit, which
+    takes neither a `brdf` nor an `ambient` term; a concrete 0 is the default)."""
+    lights = _check_lights(lights, channels)
+    if lights is not None:
+        return lights, check_brdf(brdf)
+    if brdf is not None:
+        raise ValueError("`brdf` shades lit renders only: pass `lights=` as well")
+    zero = not is_traced(ambient) and not np.any(np.asarray(ambient))
+    if not zero:
+        raise ValueError(
+            "`ambient` shades lit renders only (an unlit render shows the albedo as it "
+            "is): pass `lights=` (`()` for ambient light alone), or leave `ambient` at 0"
+        )
+    return None, None
 
 
 def render_config(mesh, vertices, camera, batched, sigma, mode, shape, *, eps, sizes, flags):
@@ -171,6 +190,8 @@ def render_config(mesh, vertices, camera, batched, sigma, mode, shape, *, eps, s
     shape = static_shape(shape)
     tile_size, capacity, tiles_per_step = sizes
     antialias, cull_backfaces, reference = flags
+    static_bool(antialias, "antialias")
+    static_bool(cull_backfaces, "cull_backfaces")
     soft = mode == "soft"
     traced = any_traced(mesh, vertices, camera, sigma)
     needed = None

@@ -19,6 +19,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .. import _regrow
 from .._checks import is_traced, positive, static_int
 from .._pixels import pixel_centers
 
@@ -417,7 +418,9 @@ def check_capacity(image, max_count, capacity, tile_size, faces=None):
 
     Eagerly a `TileCapacityError` at once; under `jax.jit` the compiled program raises it
     when it runs (JAX wraps it in its `JaxRuntimeError`, whose last line is this
-    message: the number of faces the busiest tile saw and the capacity to pass).
+    message: the number of faces the busiest tile saw and the capacity to pass), after
+    reporting the capacity it needs to `gfxlab._regrow`, so that `gfxlab.fit` grows it
+    and reruns its steps instead of aborting.
     """
     if not is_traced(max_count):
         count = int(np.max(np.asarray(max_count)))
@@ -428,6 +431,10 @@ def check_capacity(image, max_count, capacity, tile_size, faces=None):
     def host(count):
         count = int(np.max(np.asarray(count)))
         if count > capacity:
+            # `gfxlab.fit` grows the capacity from this report and reruns its steps, with
+            # room for the geometry to go on moving (each rerun compiles again).
+            needed = round_capacity(math.ceil(1.5 * count), faces if faces else count)
+            _regrow.report("tile capacity", capacity, needed, "the render's tile capacity")
             raise TileCapacityError(overflow_message(count, capacity, tile_size, faces))
 
     jax.debug.callback(host, max_count)
@@ -470,7 +477,7 @@ def resolve_capacity(
                 "`gfxlab.render.tile_capacity(...)` (outside the traced function) and pass "
                 "`capacity=`"
             )
-        return capacity
+        return _regrow.grown("tile capacity", capacity)  # grown by a `fit` that overflowed
     if needed is None:
         needed = int(max_tile_count(tri, valid, margin, shape=shape, tile_size=tile_size))
     if capacity is None:

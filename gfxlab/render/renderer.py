@@ -9,10 +9,10 @@ position, texture coordinates, user attributes) is interpolated with them.
 
 - `mode="hard"`: the nearest covering face wins (a z-buffer on eye depth); its
   attributes are exact, and their gradients flow to the vertices inside faces. At
-  silhouette edges (face / background, or a face over a non-adjacent one) the
-  nvdiffrast-style **antialiasing** blends each pair of neighbouring pixels by where the
-  edge crosses the segment between their centres, which gives the positions of the
-  edges gradients.
+  silhouette edges (mesh boundaries, and folds whose neighbouring face faces the other
+  way on screen, as in nvdiffrast) the **antialiasing** blends each pair of neighbouring
+  pixels by where the edge crosses the segment between their centres, which gives the
+  positions of the edges gradients.
 - `mode="soft"`: SoftRas' depth-aware softmax (`sigma`, `gamma`, see `soft`) weights the
   faces; attributes are aggregated with the weights, shaded once per pixel (deferred
   shading) and blended with the background by its weight. Unlit, this is exactly
@@ -44,13 +44,14 @@ from ._inputs import (
     batched_camera,
     check_render_inputs,
     check_rendering,
+    check_shading,
     interpolate_inputs,
     render_config,
     render_options,
 )
 from ._project import check_mesh_camera, project_faces
 from ._tiles import check_capacity, grown_capacity, logit_limit, pixel_face_planes, tiled
-from .shading import _check_lights, sample_texture, shade
+from .shading import sample_texture, shade
 
 __all__ = [
     "render",
@@ -72,8 +73,10 @@ class Rendering(eqx.Module):
       antialiased at silhouette edges).
     - `depth`: `(H, W)` eye depth (soft: softmax-weighted, background = far plane;
       hard: of the visible face, far plane where empty).
-    - `normal`: `(H, W, 3)` interpolated world-space unit normal (zero where empty).
-    - `position`: `(H, W, 3)` interpolated world position.
+    - `normal`: `(H, W, 3)` interpolated world-space unit normal (hard: zero where
+      empty; soft: the weighted normal normalised, zero only where no face reaches).
+    - `position`: `(H, W, 3)` interpolated world position (hard: zero where empty;
+      soft: weighted, the background weighing in as the origin).
     - `face_index`: `(H, W)` index of the nearest covering face (-1: none).
     - `barycentrics`: `(H, W, 3)` its perspective-correct barycentric coordinates.
     - `attributes`: `(H, W, A)` the interpolated user `attributes`, or `None`.
@@ -162,17 +165,43 @@ def _edge_values(tri, point):
     e = b - a
     r = point[..., None, :] - a
     fn = e[..., 0] * r[..., 1] - e[..., 1] * r[..., 0]
-    area = (tri[..., 1, 0] - tri[..., 0, 0]) * (tri[..., 2, 1] - tri[..., 0, 1]) - (
-        tri[..., 1, 1] - tri[..., 0, 1]
-    ) * (tri[..., 2, 0] - tri[..., 0, 0])
-    return fn * jnp.where(area < 0, -1.0, 1.0)[..., None]
+    return fn * jnp.where(_signed_areas(tri) < 0, -1.0, 1.0)[..., None]
 
 
-def _pair_deltas(img_p, img_q, f_p, f_q, d_p, d_q, pt_p, pt_q, tri, faces):
+def _signed_areas(tri):
+    """Twice the signed area of triangles `(..., 3, 2)` (> 0: counter-clockwise)."""
+    u, v = tri[..., 1, :] - tri[..., 0, :], tri[..., 2, :] - tri[..., 0, :]
+    return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+
+def _edge_neighbours(faces):
+    """`(F, 3)`: the face across edge `k` (corners `k`, `k + 1`) of each face, `-1` on a
+    boundary; found by sorting the `3F` undirected edges (no Python loop)."""
+    a, b = faces, jnp.roll(faces, -1, axis=1)
+    lo, hi = jnp.minimum(a, b).ravel(), jnp.maximum(a, b).ravel()
+    order = jnp.lexsort((hi, lo))
+    same = (lo[order][1:] == lo[order][:-1]) & (hi[order][1:] == hi[order][:-1])
+    slot = jnp.arange(order.shape[0])
+    partner = jnp.where(
+        jnp.pad(same, (0, 1)), slot + 1, jnp.where(jnp.pad(same, (1, 0)), slot - 1, -1)
+    )
+    face = jnp.where(partner >= 0, order[jnp.maximum(partner, 0)] // 3, -1)
+    return jnp.zeros_like(face).at[order].set(face).reshape(faces.shape)
+
+
+def _silhouette_edges(tri, faces):
+    """`(F, 3)` whether edge `k` of each face is on a silhouette in this view: a mesh
+    boundary, or a fold whose neighbour faces the other way on screen (nvdiffrast's
+    test). Inner edges between faces that face one way are never blended."""
+    neighbour = _edge_neighbours(faces)
+    facing = _signed_areas(tri) > 0
+    return (neighbour < 0) | (facing[jnp.maximum(neighbour, 0)] != facing[:, None])
+
+
+def _pair_deltas(img_p, img_q, f_p, f_q, d_p, d_q, pt_p, pt_q, tri, silhouette):
     """nvdiffrast-style blend of neighbour pixels `p`, `q` across a silhouette edge."""
     a_is_p = (f_q < 0) | ((f_p >= 0) & (d_p <= d_q))
     fa = jnp.where(a_is_p, f_p, f_q)
-    fo = jnp.where(a_is_p, f_q, f_p)
     pa = jnp.where(a_is_p[..., None], pt_p, pt_q)
     po = jnp.where(a_is_p[..., None], pt_q, pt_p)
     t_a = tri[jnp.maximum(fa, 0)]  # (..., 3, 2)
@@ -180,16 +209,13 @@ def _pair_deltas(img_p, img_q, f_p, f_q, d_p, d_q, pt_p, pt_q, tri, faces):
     exits = (e_o < 0) & (e_a >= 0)
     denom = jnp.where(exits, e_a - e_o, 1.0)
     t = jnp.where(exits, e_a / denom, 2.0)  # where the edge crosses pa -> po
-    k = jnp.argmin(jax.lax.stop_gradient(t), -1)
-    t = jnp.take_along_axis(t, k[..., None], -1)[..., 0]
-    corners_a = faces[jnp.maximum(fa, 0)]
-    i = jnp.take_along_axis(corners_a, k[..., None], -1)[..., 0]
-    j = jnp.take_along_axis(corners_a, ((k + 1) % 3)[..., None], -1)[..., 0]
-    corners_o = faces[jnp.maximum(fo, 0)]
-    shared = (
-        (fo >= 0) & jnp.any(corners_o == i[..., None], -1) & jnp.any(corners_o == j[..., None], -1)
-    )
-    active = (f_p != f_q) & (fa >= 0) & jnp.any(exits, -1) & ~shared
+    t_exit = jax.lax.stop_gradient(t)
+    t = jnp.take_along_axis(t, jnp.argmin(t_exit, -1)[..., None], -1)[..., 0]
+    # A segment through a vertex exits two edges at one t (which is the minimum is
+    # float noise): the crossing is on a silhouette if either edge is.
+    near = exits & (t_exit <= jnp.min(t_exit, -1, keepdims=True) + 1e-4)
+    on_silhouette = jnp.any(near & silhouette[jnp.maximum(fa, 0)], -1)
+    active = (f_p != f_q) & (fa >= 0) & on_silhouette
     c_a = jnp.where(a_is_p[..., None], img_p, img_q)
     c_o = jnp.where(a_is_p[..., None], img_q, img_p)
     into_o = jnp.where(active & (t > 0.5), t - 0.5, 0.0)[..., None] * (c_a - c_o)
@@ -210,9 +236,12 @@ def antialias(
 
     For every pair of horizontally or vertically neighbouring pixels that show different
     faces (or a face and the background), the front face's edge that the segment
-    between the two pixel centres crosses is found; unless that edge is shared with the
-    other face (an inner edge of a surface), the pixel on the far side of the midpoint
-    is blended towards the other by the distance of the crossing from the midpoint.
+    between the two pixel centres crosses is found. If that edge is on a silhouette (a
+    boundary of the mesh, or an edge whose neighbouring face faces the other way on
+    screen; an edge between faces that face one way is inner), the pixel on the far
+    side of the midpoint is blended towards the other by the distance of the crossing
+    from the midpoint. Faces that share an edge must list it in opposite directions (a
+    consistently oriented mesh), as `read_obj` and the procedural meshes do.
     The result is differentiable in the edge positions `triangles_2d` (pixels, y up).
     """
     image, face_index, depth, triangles_2d, faces = antialias_inputs(
@@ -225,6 +254,7 @@ def antialias(
 def _antialias(image, face_index, depth, triangles_2d, faces):
     height, width = face_index.shape
     points = pixel_centers((height, width), dtype=triangles_2d.dtype)
+    silhouette = _silhouette_edges(jax.lax.stop_gradient(triangles_2d), faces)
     out = image
     for axis in (0, 1):  # vertical pairs, then horizontal pairs
         lo = [slice(None), slice(None)]
@@ -241,7 +271,7 @@ def _antialias(image, face_index, depth, triangles_2d, faces):
             points[lo],
             points[hi],
             triangles_2d,
-            faces,
+            silhouette,
         )
         pad_p = [(0, 0)] * 3
         pad_q = [(0, 0)] * 3
@@ -340,7 +370,7 @@ def render(
     *,
     mode: str = "soft",
     sigma: float | Float[Array, ""] = 1.0,
-    gamma: float | Float[Array, ""] = 1e-2,
+    gamma: float | Float[Array, ""] = 1e-4,
     lights=None,
     brdf=None,
     ambient=0.0,
@@ -367,9 +397,9 @@ def render(
     - `shape`: image shape `(H, W)` (static).
     - `mode`: `"soft"` (SoftRas) or `"hard"` (z-buffer with edge antialiasing).
     - `sigma` (pixels^2), `gamma`: SoftRas' sharpness and depth temperature (soft only;
-      finite and > 0).
-    - `lights`, `brdf`, `ambient`: shading (`gfxlab.render.shade`); `lights=None`
-      renders the unlit albedo.
+      finite and > 0; `gamma` is SoftRas' default: a larger one lets hidden faces show).
+    - `lights`, `brdf`, `ambient` (>= 0): shading (`gfxlab.render.shade`);
+      `lights=None` renders the unlit albedo (then `brdf` and `ambient` are refused).
     - `background`: background colour (scalar or `(C,)`).
     - `vertices`: optional `(V, 3)` or `(B, V, 3)` positions replacing `mesh.vertices`.
     - `attributes`: optional `(V, A)` per-vertex attributes, interpolated
@@ -378,9 +408,9 @@ def render(
       nearer than the near plane are always dropped.
     - `antialias`: edge antialiasing of the hard image (gives silhouettes gradients).
     - `eps`, `eps_background`, `tile_size`, `capacity`, `tiles_per_step`: as in
-      `soft_rasterize`; `capacity=None` measures it from the geometry (eager calls:
-      one more compiled call). An explicit capacity that a tile of an eager call
-      overflows is grown, with a warning, and the call recompiled and run again.
+      `soft_rasterize`; `capacity=None` measures it (eagerly: one more compiled call).
+      A capacity that a tile outgrows is grown with a warning and the call rerun (in
+      `gfxlab.fit`, its steps); in your own `jax.jit`, it is an error naming one.
 
     **Returns:** a `Rendering`.
     """
@@ -400,7 +430,7 @@ def render(
     config = render_config(
         mesh, vertices, camera, batched, params[0], mode, shape, eps=eps, sizes=sizes, flags=flags
     )
-    lights = _check_lights(lights)
+    lights, brdf = check_shading(lights, brdf, ambient, background.shape[-1])
     if is_traced(camera) and camera.rotation is None:  # the core skips a camera's checks
         vertices = _pose_checked(vertices, camera.eye, camera.target, camera.up, prefix="camera.")
     extras = (attributes, lights, brdf, ambient, background, params)

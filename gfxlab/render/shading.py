@@ -122,12 +122,18 @@ def _unit_or(v, fallback):
     return jnp.where(safe_norm(v, keepdims=True) > 0, safe_normalize(v), fallback)
 
 
-def _check_lights(lights):
-    """The lights as a tuple (None stays None: `render`'s "no shading")."""
+def _check_lights(lights, channels: int | None = None):
+    """The lights as a tuple (None stays None: `render`'s "no shading"), each with an
+    intensity of 1 or `channels` colour channels (when given)."""
     if lights is None:
         return None
     if isinstance(lights, PointLight | DirectionalLight):
-        return (lights,)
+        lights = (lights,)
+    if isinstance(lights, str) or not hasattr(lights, "__iter__"):
+        raise TypeError(
+            "`lights` must be a PointLight, a DirectionalLight or a sequence of them, got "
+            f"{type(lights).__name__}"
+        )
     lights = tuple(lights)
     for k, light in enumerate(lights):
         if not isinstance(light, PointLight | DirectionalLight):
@@ -135,7 +141,40 @@ def _check_lights(lights):
                 f"`lights[{k}]` must be a PointLight or DirectionalLight, got "
                 f"{type(light).__name__}"
             )
+        size = light.intensity.size
+        if channels is not None and size not in (1, channels):
+            raise ValueError(
+                f"`lights[{k}].intensity` has {size} colour channels; the surface has "
+                f"{channels}: give a scalar or a ({channels},) colour"
+            )
     return lights
+
+
+#: The `gfxlab.brdf` models, for the message that names them.
+_MODELS = "Lambert(), Phong(...), BlinnPhong(...), CookTorrance(...) (GGX)"
+
+
+def check_brdf(brdf):
+    """`brdf`, or `Lambert()` for `None`, after checking it is a model: a `gfxlab.brdf`
+    model or any callable `eqx.Module` `f(wi, wo, n)` (a pytree, so it can be fitted)."""
+    if brdf is None:
+        return Lambert()
+    if not (isinstance(brdf, eqx.Module) and callable(brdf)):
+        raise TypeError(
+            f"`brdf` must be a gfxlab.brdf model ({_MODELS}) or a callable eqx.Module "
+            f"f(wi, wo, n), got {brdf!r:.40}"
+        )
+    return brdf
+
+
+def check_ambient(ambient, channels: int, dtype):
+    """`ambient` as a finite `dtype` array >= 0, a scalar or a `(channels,)` colour."""
+    ambient = finite_float(ambient, "ambient").astype(dtype)
+    if ambient.ndim > 1 or ambient.size not in (1, channels):
+        raise ValueError(
+            f"`ambient` must be a scalar or a colour ({channels},), got shape {ambient.shape}"
+        )
+    return value_error_if(ambient, ambient < 0, "`ambient` must be finite and >= 0")
 
 
 def shade(
@@ -167,21 +206,24 @@ def shade(
     check_last_dim(albedo, "albedo", (1, 2, 3, 4), "1 to 4 colour channels")
     check_last_dim(normal, "normal", (3,))
     check_last_dim(position, "position", (3,))
+    try:
+        jnp.broadcast_shapes(albedo.shape[:-1], normal.shape[:-1], position.shape[:-1])
+    except ValueError:
+        raise ValueError(
+            "`albedo`, `normal` and `position` must have one batch shape (or broadcast), got "
+            f"{albedo.shape[:-1]}, {normal.shape[:-1]} and {position.shape[:-1]}"
+        ) from None
     if lights is None:
         raise TypeError(
             "`lights` must be a PointLight, a DirectionalLight or a sequence of them (`()` for "
             "none), got None"
         )
-    lights = _check_lights(lights)
-    brdf = Lambert() if brdf is None else brdf
-    if not callable(brdf):
-        raise TypeError(f"`brdf` must be a gfxlab.brdf model, got {type(brdf).__name__}")
+    lights = _check_lights(lights, albedo.shape[-1])
+    brdf = check_brdf(brdf)
     dtype = albedo.dtype
     eye = finite_float(eye, "eye").astype(dtype)
     check_shape(eye, "eye", (3,))
-    ambient = finite_float(ambient, "ambient").astype(dtype)
-    if ambient.ndim > 1:
-        raise ValueError(f"`ambient` must be a scalar or a colour (C,), got shape {ambient.shape}")
+    ambient = check_ambient(ambient, albedo.shape[-1], dtype)
     return _shade(albedo, normal.astype(dtype), position.astype(dtype), eye, ambient, lights, brdf)
 
 

@@ -107,7 +107,8 @@ def soft_silhouette(
     - `tile_size`, `capacity`: tiles of `tile_size^2` pixels see at most `capacity`
       faces each. `None` (default) measures it from the geometry (eager calls); an
       explicit capacity that an eager call overflows is grown with a warning; under
-      `jax.jit` pass one (`tile_capacity`) and an overflow is an error naming it.
+      `jax.jit` pass one (`tile_capacity`) and an overflow is an error naming it
+      (inside `gfxlab.fit`, it is grown and the fit's steps rerun).
     - `tiles_per_step`: tiles evaluated together (memory vs. speed).
 
     **Returns:** `(H, W)` coverage in [0, 1].
