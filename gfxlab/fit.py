@@ -29,7 +29,9 @@ e.g. a curve's control points became NaN) raises a `FitError` naming it and the 
 leaves are held fixed. An `eqx.Module` in `params` may define a method
 `fixed_fields(self) -> tuple[str, ...]`: the fields it names are held fixed (e.g. a
 `BSpline`'s knots when it is not fitting them). `fixed=` adds to this: a pytree prefix
-of `params` with `True` (fixed) / `False`, or a callable `leaf -> bool`.
+of `params` with `True` (fixed) / `False`, or a callable `leaf -> bool`. A module's
+construction checks do not run on the iterates: a fitted `Mesh`'s colours can leave
+[0, 1] unless bounded or fixed.
 
 **Bounds.** `bounds=` gives `(lo, hi)` per parameter, as a pytree prefix of `params` (a
 dict `{"quality": (1.0, 100.0)}`, one pair for everything, `None` for unbounded parts;

@@ -2,6 +2,7 @@
 gradients, textures, batches, sharding and bad inputs."""
 
 import functools
+import json
 import os
 import subprocess
 import sys
@@ -339,6 +340,62 @@ def test_batched_views_equal_single_views_with_lights_and_antialiasing():
         assert blended.any() and not (blended & interior).any()  # silhouette pixels only
 
 
+def grid_plane(n, dtype=np.float64):
+    """An `n x n`-vertex square in z = 0, two triangles per cell (shared edges)."""
+    u = np.linspace(-1.0, 1.0, n)
+    x, y = np.meshgrid(u, u)
+    vertices = np.stack([x.ravel(), y.ravel(), np.zeros(n * n)], -1).astype(dtype)
+    i = (np.arange(n - 1)[:, None] * n + np.arange(n - 1)[None]).ravel()
+    faces = np.concatenate(
+        [np.stack([i, i + 1, i + n + 1], -1), np.stack([i, i + n + 1, i + n], -1)]
+    )
+    return Mesh(jnp.asarray(vertices), jnp.asarray(faces), jnp.ones((n * n, 3), dtype))
+
+
+HOLES_SCRIPT = """
+import json, sys
+import jax, jax.numpy as jnp, numpy as np
+jax.config.update("jax_enable_x64", True)
+sys.path.insert(0, sys.argv[1])
+from test_render_renderer import grid_plane
+from gfxlab import render as R
+from gfxlab.viewing import Camera
+found = []
+for renderer, n, dtype in [(R.render, 5, np.float32), (R.render_dense, 2, np.float32)]:
+    plane = grid_plane(n, dtype)
+    eyes = jnp.zeros((16, 3), dtype).at[:, 2].set(jnp.linspace(3.2, 6.0, 16))
+    batched = renderer(plane, Camera(eyes), (16, 16), mode="hard")
+    for k, face_index in enumerate(np.asarray(batched.face_index)):
+        rows, cols = np.nonzero(face_index >= 0)
+        box = face_index[rows.min() : rows.max() + 1, cols.min() : cols.max() + 1]
+        found.append([renderer.__name__, n, str(dtype), float(eyes[k, 2]), int((box < 0).sum())])
+    single = renderer(plane, Camera(eyes[3]), (16, 16), mode="hard")
+    found.append(["batched vs single", n, str(dtype), 0.0,
+                  int((np.asarray(batched.face_index[3]) != np.asarray(single.face_index)).sum())])
+print(json.dumps(found))
+"""
+
+
+def test_shared_edges_through_pixel_centres_leave_no_holes():
+    """Seen along its axis, a grid's inner edges run through pixel centres. Each edge is
+    evaluated the same way from both faces, so a centre on it is inside at least one:
+    the square is solid at every distance, and a batch of views equals single views.
+    Run with the user's XLA flags: the suite's fast-compile flags skip the fused
+    multiply-adds whose rounding made holes (tests/conftest.py)."""
+    env = dict(os.environ, XLA_FLAGS=os.environ["GFXLAB_USER_XLA_FLAGS"], JAX_PLATFORMS="cpu")
+    out = subprocess.run(
+        [sys.executable, "-c", HOLES_SCRIPT, os.path.dirname(__file__)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert out.returncode == 0, out.stderr[-3000:]
+    rows = json.loads(out.stdout.strip().splitlines()[-1])
+    assert len(rows) == 2 * 17
+    assert [row for row in rows if row[-1]] == []  # (renderer, n, dtype, eye z, holes)
+
+
 def test_a_fit_whose_mesh_outgrows_its_capacity_grows_it_and_reruns():
     """A fit that shrinks the mesh crowds the tiles past the capacity measured at the
     start: `fit` grows the capacity (a warning says so), reruns the steps, and ends
@@ -515,6 +572,57 @@ LIGHT = R.PointLight(jnp.array([2.0, 2.0, 2.0]), 1.0)
 def test_bad_options_are_named(options, error, message):
     with pytest.raises(error, match=message):
         _scene_and(**options)
+
+
+@pytest.mark.parametrize(
+    ("fields", "match"),
+    [
+        (
+            {"target": [[0.0, 0.0, 0.0], [0.5, 0.0, 0.0]], "near": [0.5, 0.6, 0.7]},
+            r"fields must batch one number of views, got `camera.target` 2, `camera.near` 3",
+        ),
+        ({"eye": [[[0.0, 0.0, 4.0]], [[0.0, 0.0, 5.0]]]}, r"`camera.eye` must have shape"),
+        (
+            {"eye": [[0.0, 0.0, 4.0], [0.0, 0.0, 5.0]], "fov_y": [0.5, 0.6, 0.7]},
+            r"`camera.fov_y` 3",
+        ),
+    ],
+)
+def test_camera_batches_that_do_not_agree_are_named(fields, match):
+    """`Camera` broadcasts its fields (its matrices accept any batch shape); `render`
+    takes one batch axis of one size, and names the field that breaks that."""
+    fields = {"eye": [0.0, 0.0, 4.0]} | fields
+    camera = Camera(**{k: jnp.asarray(v) for k, v in fields.items()})
+    with pytest.raises(ValueError, match=match):
+        R.render(icosphere(0), camera, (8, 8))
+    targets = jnp.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0]])  # one eye, two targets: 2 views
+    views = R.render(icosphere(0), Camera(jnp.array([0.0, 0.0, 4.0]), targets), (8, 8))
+    for k in range(2):
+        single = R.render(icosphere(0), Camera(jnp.array([0.0, 0.0, 4.0]), targets[k]), (8, 8))
+        np.testing.assert_allclose(views.color[k], single.color, atol=1e-12)
+    eyes = Camera(jnp.array([[0.0, 0.0, 4.0], [0.0, 0.0, 5.0]]))
+    with pytest.raises(ValueError, match=r"`vertices` batches 3 meshes but `camera` 2 views"):
+        R.render(icosphere(0), eyes, (8, 8), vertices=jnp.stack([icosphere(0).vertices] * 3))
+
+
+def test_a_capacity_outgrown_inside_your_own_jit_is_a_named_error():
+    """Under `jax.jit` the overflow is raised in a host callback, which JAX wraps in its
+    runtime error: `check_message` finds the message there, and `checked_jit` raises it
+    as the `TileCapacityError` it is."""
+    from gfxlab import check_message, checked_jit
+
+    ball, camera = icosphere(2), Camera(jnp.array([0.0, 0.0, 4.0]))
+
+    def coverage(v):
+        return R.render(ball, camera, (32, 32), mode="hard", vertices=v, capacity=8).alpha.sum()
+
+    with pytest.raises(jax.errors.JaxRuntimeError) as raised:
+        jax.jit(coverage)(0.3 * ball.vertices)
+    message = check_message(raised.value)
+    assert message.startswith("a 8x8 tile overlaps") and "`capacity` = 8" in message
+    with pytest.raises(R.TileCapacityError, match=r"more than `capacity` = 8: pass"):
+        checked_jit(coverage)(0.3 * ball.vertices)
+    assert issubclass(R.TileCapacityError, ValueError)
 
 
 def test_shade_and_mesh_name_mismatched_channels_and_shapes():

@@ -223,6 +223,10 @@ class Mesh(eqx.Module):
     texture coordinates, normals and a texture.
 
     A pytree: its fields are the constructor's arguments, checked once at construction.
+    As `params` of `gfxlab.fit`, every float field is fitted (vertices, colours, uvs,
+    normals, texture) and only construction checks ranges: colours or a texture leave
+    [0, 1] unless held (`fixed=`) or bounded (`bounds=`). To fit the shape alone, fit
+    the vertices and pass them to `render(..., vertices=...)`.
     """
 
     vertices: Float[Array, "V 3"] = eqx.field(converter=_vertices_field)

@@ -8,7 +8,8 @@ textures, and the classic hidden-surface algorithms.
 - Shading (module `shading`): `shade` through any `gfxlab.brdf` model with
   `PointLight`/`DirectionalLight`, `sample_texture` (bilinear, differentiable).
 - Soft rasterization building blocks (module `soft`): `soft_silhouette` of 2D
-  triangles, the flat-shaded `soft_rasterize`, `tile_capacity`.
+  triangles, the flat-shaded `soft_rasterize`, `tile_capacity` (and `TileCapacityError`,
+  a `ValueError`, when a tile outgrows the capacity a compiled render was given).
 - Dense references (`render_dense`, `soft_silhouette_dense`, `soft_rasterize_dense`):
   every pixel against every face with plain autodiff, O(pixels x faces), what the tiled
   functions are tested against.
@@ -33,6 +34,7 @@ Examples:
     21
 """
 
+from ._tiles import TileCapacityError
 from .hsr import (
     WARNOCK_CODES,
     VisibilityResult,
@@ -72,6 +74,7 @@ __all__ = [
     "soft_rasterize",
     "soft_rasterize_dense",
     "tile_capacity",
+    "TileCapacityError",
     "screen_scene",
     "VisibilityResult",
     "zbuffer",

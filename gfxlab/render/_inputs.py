@@ -45,18 +45,36 @@ class RenderConfig(NamedTuple):
     reference: bool = False  # plain autodiff, every pixel against every face
 
 
+_POSE_FIELDS, _LENS_FIELDS = ("eye", "target", "up"), ("fov_y", "aspect", "near", "far")
+
+
+def camera_batch(camera: Camera) -> int | None:
+    """The number of views of `camera` (None: one view). Each field is unbatched
+    (`(3,)` for the pose, `()` for the lens) or has one leading batch axis, of one size
+    across the fields; anything else is an error naming the field."""
+    sizes = {}
+    for name in _POSE_FIELDS + _LENS_FIELDS:
+        shape = getattr(camera, name).shape
+        core = (3,) if name in _POSE_FIELDS else ()
+        if shape != core:
+            if len(shape) != len(core) + 1 or shape[1:] != core:
+                raise ValueError(
+                    f"`camera.{name}` must have shape {core} or (B, *{core}) for a batch of "
+                    f"B views, got {shape}"
+                )
+            sizes[name] = shape[0]
+    if len(set(sizes.values())) > 1:
+        listed = ", ".join(f"`camera.{n}` {b}" for n, b in sizes.items())
+        raise ValueError(f"the camera's fields must batch one number of views, got {listed}")
+    return next(iter(sizes.values()), None)
+
+
 def batched_camera(camera: Camera, batch: int) -> Camera:
-    """Every field of a batched camera with the leading batch axis."""
+    """Every field of a camera (see `camera_batch`) with the leading batch axis."""
     fields = {}
-    for name in ("eye", "target", "up", "fov_y", "aspect", "near", "far"):
-        value = getattr(camera, name)
-        core = (3,) if name in ("eye", "target", "up") else ()
-        if value.shape not in (core, (batch,) + core):
-            raise ValueError(
-                f"`camera.{name}` must have shape {core} or {(batch,) + core} for a "
-                f"batch of {batch}, got {value.shape}"
-            )
-        fields[name] = jnp.broadcast_to(value, (batch,) + core)
+    for name in _POSE_FIELDS + _LENS_FIELDS:
+        core = (3,) if name in _POSE_FIELDS else ()
+        fields[name] = jnp.broadcast_to(getattr(camera, name), (batch,) + core)
     eye = fields.pop("eye")
     return Camera(eye, fields.pop("target"), fields.pop("up"), **fields)
 
@@ -75,34 +93,15 @@ def check_render_inputs(mesh, camera, vertices, attributes):
                 f"`vertices` must have shape (V, 3) or (B, V, 3), got {vertices.shape}"
             )
         vertices = check_finite(vertices, "vertices")
-    batch = {vertices.shape[0]} if vertices.ndim == 3 else set()
-    if camera.eye.ndim == 2 or any(
-        getattr(camera, n).ndim >= 1 for n in ("fov_y", "aspect", "near", "far")
-    ):
-        sizes = {
-            getattr(camera, n).shape[0]
-            for n in ("eye", "target", "up")
-            if getattr(camera, n).ndim == 2
-        }
-        sizes |= {
-            getattr(camera, n).shape[0]
-            for n in ("fov_y", "aspect", "near", "far")
-            if getattr(camera, n).ndim == 1
-        }
-        batch |= sizes
-    if len(batch) > 1:
-        raise ValueError(f"the batch sizes of `vertices` and `camera` differ: {sorted(batch)}")
-    batched = bool(batch) and (
-        camera.eye.ndim == 2
-        or camera.fov_y.ndim == 1
-        or camera.near.ndim == 1
-        or camera.far.ndim == 1
-        or camera.aspect.ndim == 1
-        or camera.target.ndim == 2
-        or camera.up.ndim == 2
-    )
+    views = camera_batch(camera)
+    if views is not None and vertices.ndim == 3 and vertices.shape[0] != views:
+        raise ValueError(
+            f"`vertices` batches {vertices.shape[0]} meshes but `camera` {views} views: "
+            "they must be equal (or one of them unbatched)"
+        )
+    batched = views is not None
     if batched:
-        camera = batched_camera(camera, batch.pop())
+        camera = batched_camera(camera, views)
     if attributes is not None:
         attributes = as_float(attributes, "attributes")
         check_shape(attributes, "attributes", (mesh.num_vertices, None))

@@ -20,7 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _regrow
-from .._checks import is_traced, positive, static_int
+from .._checks import HostCheckError, is_traced, positive, static_int
 from .._pixels import pixel_centers
 
 
@@ -43,6 +43,11 @@ def pixel_face_planes(points, tri):
 
     Written per coordinate (no trailing axes of size 2 or 3, which XLA runs slower);
     per-face quantities (edges, reciprocal lengths and area) are computed once per face.
+
+    Each edge is evaluated from its lexicographically smaller end, whichever face it
+    belongs to: two faces that share an edge get edge functions of exactly opposite
+    sign, so a pixel centre on the edge is inside at least one of them (evaluated from
+    each face's own corner, rounding could leave it outside both: a hole).
     """
     px, py = points[:, 0:1], points[:, 1:2]  # (P, 1)
     cx = [tri[None, :, k, 0] for k in range(3)]  # (1, K) each
@@ -50,16 +55,21 @@ def pixel_face_planes(points, tri):
     d2 = None
     edge_fn = []
     for k in range(3):
-        ex, ey = cx[(k + 1) % 3] - cx[k], cy[(k + 1) % 3] - cy[k]
+        ax, ay, bx, by = cx[k], cy[k], cx[(k + 1) % 3], cy[(k + 1) % 3]
+        flip = jax.lax.stop_gradient((bx < ax) | ((bx == ax) & (by < ay)))
+        ax, bx = jnp.where(flip, bx, ax), jnp.where(flip, ax, bx)
+        ay, by = jnp.where(flip, by, ay), jnp.where(flip, ay, by)
+        ex, ey = bx - ax, by - ay
         length2 = ex * ex + ey * ey
         nonzero = length2 > 0
         inv_length2 = jnp.where(nonzero, 1.0 / jnp.where(nonzero, length2, 1.0), 0.0)
-        rx, ry = px - cx[k], py - cy[k]
+        rx, ry = px - ax, py - ay
         t = jnp.clip((rx * ex + ry * ey) * inv_length2, 0.0, 1.0)
         ox, oy = rx - t * ex, ry - t * ey
         dk = ox * ox + oy * oy
         d2 = dk if d2 is None else jnp.minimum(d2, dk)
-        edge_fn.append(ex * ry - ey * rx)  # twice the signed area opposite corner k + 2
+        sx, sy = jnp.where(flip, -ex, ex), jnp.where(flip, -ey, ey)  # the face's direction
+        edge_fn.append(sx * ry - sy * rx)  # twice the signed area opposite corner k + 2
     area2 = (cx[1] - cx[0]) * (cy[2] - cy[0]) - (cy[1] - cy[0]) * (cx[2] - cx[0])
     proper = area2 != 0
     sign = jnp.sign(area2)
@@ -386,8 +396,9 @@ def _run_tiles_bwd(plan, residuals, cotangent):
 _run_tiles.defvjp(_run_tiles_fwd, _run_tiles_bwd)
 
 
-class TileCapacityError(ValueError):
-    """A tile overlaps more faces than the `capacity` a render was compiled with."""
+class TileCapacityError(HostCheckError):
+    """A tile overlaps more faces than the `capacity` a render was compiled with (a
+    `ValueError`; under `jax.jit`, `gfxlab.check_message` finds it in JAX's error)."""
 
 
 class _DropOverflowLogs(logging.Filter):

@@ -42,6 +42,7 @@ from ._inputs import (
     RenderConfig,
     antialias_inputs,
     batched_camera,
+    camera_batch,
     check_render_inputs,
     check_rendering,
     check_shading,
@@ -123,7 +124,8 @@ def _fragments(points, sub, slot_mask, ids, params, *, soft, eps):
     else:
         keep = slot_mask[None] & (inside | (d2 <= sigma * logit_limit(eps)))
         x = jnp.where(inside, d2, -d2) / sigma
-        alpha = -jnp.expm1(jnp.sum(jnp.where(keep, jax.nn.log_sigmoid(-x), 0.0), -1))
+        # 0.0 - x, not -x: where no face reaches, +0.0 rather than -0.0
+        alpha = 0.0 - jnp.expm1(jnp.sum(jnp.where(keep, jax.nn.log_sigmoid(-x), 0.0), -1))
         z = (far - depth) / (far - near)
         logits = jnp.where(keep, jax.nn.log_sigmoid(x) + z / gamma, -jnp.inf)
         top = jax.lax.stop_gradient(jnp.maximum(jnp.max(logits, -1), eps_bg / gamma))
@@ -482,12 +484,12 @@ def shard_cameras(camera: Camera, devices=None) -> Camera:
     if not isinstance(camera, Camera):
         raise TypeError(f"`camera` must be a gfxlab.viewing.Camera, got {type(camera).__name__}")
     devices = jax.devices() if devices is None else list(devices)
-    if camera.eye.ndim != 2 or camera.eye.shape[0] % len(devices):
+    batch = camera_batch(camera)
+    if batch is None or batch % len(devices):
         raise ValueError(
-            f"`camera` must be batched (eye (B, 3)) with B a multiple of the "
-            f"{len(devices)} devices, got eye shape {camera.eye.shape}"
+            f"`camera` must be batched (B views) with B a multiple of the "
+            f"{len(devices)} devices, got {'one view' if batch is None else f'{batch} views'}"
         )
-    batch = camera.eye.shape[0]
     camera = batched_camera(camera, batch)
     grid = jax.sharding.Mesh(np.asarray(devices), ("views",))
 

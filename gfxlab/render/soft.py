@@ -69,7 +69,8 @@ def _color_pixels(points, faces, slot_mask, params):
     d2, inside, bary = pixel_face_terms(points, tri)
     keep = slot_mask[None] & (inside | (d2 <= sigma * logit_limit(eps)))
     x = jnp.where(inside, d2, -d2) / sigma
-    alpha = -jnp.expm1(jnp.sum(jnp.where(keep, jax.nn.log_sigmoid(-x), 0.0), axis=-1))
+    # 0.0 - x, not -x: where no face reaches, +0.0 rather than -0.0
+    alpha = 0.0 - jnp.expm1(jnp.sum(jnp.where(keep, jax.nn.log_sigmoid(-x), 0.0), axis=-1))
     # perspective-correct depth: inverse depth is affine in screen space
     inv = jnp.sum(bary * inv_depth[None], -1)
     depth = 1.0 / jnp.where(keep, inv, 1.0)
