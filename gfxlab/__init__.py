@@ -36,7 +36,7 @@ _SUBMODULES = (
 )
 
 # Public helpers of the shared check layer, imported on first use like the submodules.
-_HELPERS = {"checked_jit": "_checks", "check_message": "_checks"}
+_HELPERS = {"checked_jit": "_checks", "check_message": "_check_errors"}
 
 __all__ = ["__version__", "data_file", *_HELPERS, *_SUBMODULES]
 

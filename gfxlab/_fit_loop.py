@@ -10,7 +10,6 @@ becomes a `FitError` that names the steps and the check's message.
 
 from __future__ import annotations
 
-import re
 import time
 import warnings
 
@@ -19,6 +18,7 @@ import jax
 import numpy as np
 
 from . import _regrow
+from ._check_errors import check_message
 from ._fit_params import FitError
 
 #: The most reruns of one chunk with grown sizes (a size grows to what the run needed).
@@ -67,14 +67,6 @@ def _check_finite(losses, start_step: int, method: str) -> None:
         )
 
 
-def _check_message(err: Exception) -> str | None:
-    """The message of a failed `eqx.error_if` check, without equinox's tracebacks."""
-    if not isinstance(err, eqx.EquinoxRuntimeError):
-        return None
-    found = re.findall(r"EquinoxRuntimeError: (.*?)\n\n-{5,}", str(err), flags=re.DOTALL)
-    return found[-1].strip() if found else str(err).strip().splitlines()[-1]
-
-
 def _run_chunk(run, state, args, n: int, first: int, name: str):
     """`run(state, args, n, generation)`, rerun with grown sizes when it outgrew one."""
     for _ in range(MAX_REGROWTHS):
@@ -90,7 +82,8 @@ def _run_chunk(run, state, args, n: int, first: int, name: str):
                     stacklevel=4,
                 )
                 continue
-            message = _check_message(err)
+            # fit compiles with eqx.filter_jit: a failed check is an EquinoxRuntimeError
+            message = check_message(err) if isinstance(err, eqx.EquinoxRuntimeError) else None
             if message is None:
                 raise
             raise FitError(

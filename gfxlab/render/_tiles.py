@@ -20,7 +20,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _regrow
-from .._checks import HostCheckError, is_traced, positive, static_int
+from .._check_errors import HostCheckError
+from .._checks import is_traced, positive, static_int
 from .._pixels import pixel_centers
 
 
