@@ -22,7 +22,9 @@ traceable).
 **Static sizes that run out.** A compiled step whose static size runs out while it
 runs (a `gfxlab.render` tile capacity, as a fitted mesh shrinks or turns) does not abort
 the fit: the size is grown, a `RuntimeWarning` says so, and the chunk of steps reruns
-from its start. A check inside `fn` that fails while the steps run (an `eqx.error_if`,
+from its start. (A render of fitted geometry needs an explicit `capacity`, measured
+with `gfxlab.render.tile_capacity` on the start: `capacity=None` measures concrete
+geometry only.) A check inside `fn` that fails while the steps run (an `eqx.error_if`,
 e.g. a curve's control points became NaN) raises a `FitError` naming it and the steps.
 
 **Which leaves are fitted.** Floating-point array leaves of `params` are fitted; other

@@ -396,6 +396,36 @@ def test_shared_edges_through_pixel_centres_leave_no_holes():
     assert [row for row in rows if row[-1]] == []  # (renderer, n, dtype, eye z, holes)
 
 
+def triangle_along(camera, shape, centre, direction, distance):
+    """One large triangle in z = 0 whose edge runs along `direction` (pixels) at signed
+    `distance` (pixels, > 0: outside) from the pixel centre `centre`."""
+    px = np.asarray(camera.to_pixels(jnp.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), shape))
+    origin, scale = px[0, :2], px[1, 0] - px[0, 0]  # pixels of the world origin, per unit
+    d = np.asarray(direction, float) / np.linalg.norm(direction)
+    normal = np.array([d[1], -d[0]])
+    on_edge = np.asarray(centre, float) + normal * distance
+    corners = np.array([on_edge - 20 * d, on_edge + 20 * normal, on_edge + 20 * d])
+    world = np.c_[(corners - origin) / scale, np.zeros(3)]
+    return Mesh(jnp.asarray(world), jnp.array([[0, 1, 2]]))
+
+
+@pytest.mark.parametrize("direction", [(1.0, 1.0), (1.0, 3.0), (1.0, 0.2), (0.0, 1.0)])
+def test_antialiased_coverage_is_continuous_as_an_edge_crosses_a_pixel_centre(direction):
+    """A pixel's antialiased alpha follows the edge: about 1/2 with its centre on the
+    edge, on either side of it, at any slope. Each edge is blended by the pixel pairs
+    it is closer to perpendicular to (nvdiffrast); blended by both, a pixel just
+    outside a slanted edge got about 1 and dropped to 0 once covered."""
+    camera, shape, centre = Camera(jnp.array([0.0, 0.0, 4.0])), (16, 16), (7.0, 8.0)
+    row, col = shape[0] - 1 - int(centre[1]), int(centre[0])  # y up
+    alphas = []
+    for distance in (0.2, 0.01, -0.01, -0.2):
+        mesh = triangle_along(camera, shape, centre, direction, distance)
+        alphas.append(float(R.render(mesh, camera, shape, mode="hard").alpha[row, col]))
+    assert alphas[0] < alphas[1] < alphas[2] < alphas[3]  # it grows as the edge covers it
+    assert abs(alphas[1] - 0.5) < 0.05 and abs(alphas[2] - 0.5) < 0.05
+    assert alphas[2] - alphas[1] < 0.05  # no jump as the centre crosses the edge
+
+
 def test_a_fit_whose_mesh_outgrows_its_capacity_grows_it_and_reruns():
     """A fit that shrinks the mesh crowds the tiles past the capacity measured at the
     start: `fit` grows the capacity (a warning says so), reruns the steps, and ends
@@ -623,6 +653,50 @@ def test_a_capacity_outgrown_inside_your_own_jit_is_a_named_error():
     with pytest.raises(R.TileCapacityError, match=r"more than `capacity` = 8: pass"):
         checked_jit(coverage)(0.3 * ball.vertices)
     assert issubclass(R.TileCapacityError, ValueError)
+
+
+@pytest.mark.parametrize(
+    ("model", "value", "match"),
+    [
+        (lambda r: B.CookTorrance(r), 0.0, r"`roughness` must be >= 0.02"),
+        (lambda s: B.Phong(1.0, s), -3.0, r"`shininess` must be >= 0"),
+        (lambda a: B.Lambert(a), float("nan"), r"`albedo` must be finite"),
+    ],
+)
+def test_traced_brdf_parameters_are_checked_inside_render(model, value, match):
+    """Under `jit` a model's construction cannot check its traced parameters, and the
+    render's core drops the checks inside the model: `render` ties them on first."""
+    from gfxlab import checked_jit
+
+    ball, camera = icosphere(1), Camera(jnp.array([0.0, 0.0, 4.0]))
+    light = [R.PointLight(jnp.array([0.0, 0.0, 4.0]))]
+
+    def image(p):
+        return R.render(ball, camera, (8, 8), mode="hard", lights=light, brdf=model(p)).color
+
+    with pytest.raises(ValueError, match=match):
+        checked_jit(image)(jnp.asarray(value))
+    good = {0.0: 0.5, -3.0: 3.0}.get(value, 0.5)
+    assert np.isfinite(np.asarray(checked_jit(image)(jnp.asarray(good)))).all()
+
+
+def test_faces_that_do_not_index_the_vertices_are_refused_traced_or_not():
+    """A `Mesh` checks concrete faces at construction; faces changed by `eqx.tree_at`
+    or traced under `jit` are checked by `render` (and `tile_capacity`)."""
+    import equinox as eqx
+
+    from gfxlab import checked_jit
+
+    ball, camera = icosphere(1), Camera(jnp.array([0.0, 0.0, 4.0]))
+    bad = ball.faces.at[0, 0].set(10_000)
+    message = r"`mesh.faces` must index the 42 vertices \(0 <= index < 42\)"
+    with pytest.raises(ValueError, match=message):
+        checked_jit(lambda f: R.render(Mesh(ball.vertices, f), camera, (8, 8)).alpha)(bad)
+    edited = eqx.tree_at(lambda m: m.faces, ball, bad.at[0, 0].set(-5))
+    with pytest.raises(ValueError, match=message):
+        R.render(edited, camera, (8, 8))
+    with pytest.raises(ValueError, match=message):
+        R.tile_capacity(edited, camera, (8, 8), sigma=1.0)
 
 
 def test_shade_and_mesh_name_mismatched_channels_and_shapes():

@@ -328,20 +328,36 @@ def _converter(name: str):
     return convert
 
 
-def _check_fields(module, **ranges) -> None:
-    for name, (low, high, why) in ranges.items():
+def _check_fields(module) -> None:
+    """The concrete fields of a model, checked against its `_RANGES` at construction."""
+    for name, (low, high, why) in module._RANGES.items():
         value = getattr(module, name)
         if not is_traced(value):
             _param(value, name, low=low, high=high, why=why)
+
+
+def with_checked_fields(model):
+    """`model` whose fields carry their range checks (`eqx.error_if`) for traced values
+    too: construction checks only concrete ones, and a caller that runs the model
+    inside a core whose own checks are dropped (`render`) ties them on first. Other
+    modules (a user's own model) come back unchanged."""
+    ranges = getattr(model, "_RANGES", None)
+    if not ranges or not is_traced([getattr(model, n) for n in ranges]):
+        return model
+    names = list(ranges)
+    checked = [_check_param(getattr(model, n), n, low=lo, high=hi, why=why)
+               for n, (lo, hi, why) in ranges.items()]  # fmt: skip
+    return eqx.tree_at(lambda m: [getattr(m, n) for n in names], model, checked)
 
 
 class Lambert(eqx.Module):
     """Parameters of `lambert`; call it as `model(wi, wo, n)`."""
 
     albedo: Float[Array, "..."] = eqx.field(converter=_converter("albedo"), default=1.0)
+    _RANGES = {"albedo": (0.0, 1.0, "")}
 
     def __check_init__(self):
-        _check_fields(self, albedo=(0.0, 1.0, ""))
+        _check_fields(self)
 
     def __call__(self, wi, wo, n):
         return lambert(wi, wo, n, albedo=self.albedo)
@@ -354,9 +370,10 @@ class Phong(eqx.Module):
     shininess: Float[Array, "..."] = eqx.field(converter=_converter("shininess"), default=10.0)
     kd: Float[Array, "..."] = eqx.field(converter=_converter("kd"), default=0.0)
     normalized: bool = eqx.field(static=True, default=True)
+    _RANGES = {"ks": (0.0, None, ""), "shininess": (0.0, None, ""), "kd": (0.0, 1.0, "")}
 
     def __check_init__(self):
-        _check_fields(self, ks=(0.0, None, ""), shininess=(0.0, None, ""), kd=(0.0, 1.0, ""))
+        _check_fields(self)
         static_bool(self.normalized, "normalized")
 
     def __call__(self, wi, wo, n):
@@ -372,9 +389,10 @@ class BlinnPhong(eqx.Module):
     ks: Float[Array, "..."] = eqx.field(converter=_converter("ks"), default=1.0)
     shininess: Float[Array, "..."] = eqx.field(converter=_converter("shininess"), default=10.0)
     kd: Float[Array, "..."] = eqx.field(converter=_converter("kd"), default=0.0)
+    _RANGES = Phong._RANGES
 
     def __check_init__(self):
-        _check_fields(self, ks=(0.0, None, ""), shininess=(0.0, None, ""), kd=(0.0, 1.0, ""))
+        _check_fields(self)
 
     def __call__(self, wi, wo, n):
         return blinn_phong(wi, wo, n, ks=self.ks, shininess=self.shininess, kd=self.kd)
@@ -389,14 +407,14 @@ class CookTorrance(eqx.Module):
     roughness: Float[Array, "..."] = eqx.field(converter=_converter("roughness"), default=0.5)
     f0: Float[Array, "..."] = eqx.field(converter=_converter("f0"), default=0.04)
     kd: Float[Array, "..."] = eqx.field(converter=_converter("kd"), default=0.0)
+    _RANGES = {
+        "roughness": (MIN_ROUGHNESS, None, _ROUGHNESS_WHY),
+        "f0": (0.0, 1.0, ""),
+        "kd": (0.0, 1.0, ""),
+    }
 
     def __check_init__(self):
-        _check_fields(
-            self,
-            roughness=(MIN_ROUGHNESS, None, _ROUGHNESS_WHY),
-            f0=(0.0, 1.0, ""),
-            kd=(0.0, 1.0, ""),
-        )
+        _check_fields(self)
 
     def __call__(self, wi, wo, n):
         return cook_torrance(wi, wo, n, roughness=self.roughness, f0=self.f0, kd=self.kd)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -80,9 +81,15 @@ def batched_camera(camera: Camera, batch: int) -> Camera:
 
 
 def check_render_inputs(mesh, camera, vertices, attributes):
+    """`(mesh, vertices, camera, batched, attributes)` of a render, checked: the mesh's
+    faces index its vertices (eagerly, or tied to the faces when traced: a `Mesh` built
+    from concrete faces was checked, but not one changed by `eqx.tree_at` or traced)."""
     check_mesh_camera(mesh, camera)
     if mesh.num_faces == 0:
         raise ValueError("`mesh` has no faces: there is nothing to render")
+    faces = check_faces(mesh.faces, mesh.num_vertices, "mesh.faces")
+    if is_traced(mesh.faces):
+        mesh = eqx.tree_at(lambda m: m.faces, mesh, faces)
     if vertices is None:
         vertices = mesh.vertices
     else:
@@ -106,7 +113,7 @@ def check_render_inputs(mesh, camera, vertices, attributes):
         attributes = as_float(attributes, "attributes")
         check_shape(attributes, "attributes", (mesh.num_vertices, None))
         attributes = check_finite(attributes, "attributes")
-    return vertices, camera, batched, attributes
+    return mesh, vertices, camera, batched, attributes
 
 
 def _float_option(x, name: str, dtype):

@@ -69,7 +69,10 @@ class Rendering(eqx.Module):
 
     **Fields:**
 
-    - `color`: `(H, W, C)` shaded colour, background blended in.
+    - `color`: `(H, W, C)` shaded colour (hard: blended with the background at
+      antialiased edges; soft: the background is one more term of SoftRas' softmax,
+      weighted by `eps_background`, not alpha blending: where faces reach, it barely
+      shows).
     - `alpha`: `(H, W)` silhouette (soft: SoftRas' `1 - prod(1 - D)`; hard: coverage,
       antialiased at silhouette edges).
     - `depth`: `(H, W)` eye depth (soft: softmax-weighted, background = far plane;
@@ -200,8 +203,9 @@ def _silhouette_edges(tri, faces):
     return (neighbour < 0) | (facing[jnp.maximum(neighbour, 0)] != facing[:, None])
 
 
-def _pair_deltas(img_p, img_q, f_p, f_q, d_p, d_q, pt_p, pt_q, tri, silhouette):
-    """nvdiffrast-style blend of neighbour pixels `p`, `q` across a silhouette edge."""
+def _pair_deltas(img_p, img_q, f_p, f_q, d_p, d_q, pt_p, pt_q, tri, silhouette, axis):
+    """nvdiffrast-style blend of neighbour pixels `p`, `q` (a pair along `axis`: 0
+    vertical, 1 horizontal) across a silhouette edge."""
     a_is_p = (f_q < 0) | ((f_p >= 0) & (d_p <= d_q))
     fa = jnp.where(a_is_p, f_p, f_q)
     pa = jnp.where(a_is_p[..., None], pt_p, pt_q)
@@ -212,12 +216,20 @@ def _pair_deltas(img_p, img_q, f_p, f_q, d_p, d_q, pt_p, pt_q, tri, silhouette):
     denom = jnp.where(exits, e_a - e_o, 1.0)
     t = jnp.where(exits, e_a / denom, 2.0)  # where the edge crosses pa -> po
     t_exit = jax.lax.stop_gradient(t)
-    t = jnp.take_along_axis(t, jnp.argmin(t_exit, -1)[..., None], -1)[..., 0]
+    k = jnp.argmin(t_exit, -1)[..., None]
+    t = jnp.take_along_axis(t, k, -1)[..., 0]
     # A segment through a vertex exits two edges at one t (which is the minimum is
     # float noise): the crossing is on a silhouette if either edge is.
     near = exits & (t_exit <= jnp.min(t_exit, -1, keepdims=True) + 1e-4)
     on_silhouette = jnp.any(near & silhouette[jnp.maximum(fa, 0)], -1)
-    active = (f_p != f_q) & (fa >= 0) & on_silhouette
+    # Each edge is blended by the pairs it is closer to perpendicular to, as in
+    # nvdiffrast: blended by both, a pixel by a slanted edge would get both blends.
+    corners = jax.lax.stop_gradient(t_a)
+    start = jnp.take_along_axis(corners, k[..., None], -2)[..., 0, :]
+    end = jnp.take_along_axis(corners, ((k + 1) % 3)[..., None], -2)[..., 0, :]
+    dx, dy = jnp.abs(end[..., 0] - start[..., 0]), jnp.abs(end[..., 1] - start[..., 1])
+    facing_pair = dx > dy if axis == 0 else dy >= dx  # vertical pairs: flatter edges
+    active = (f_p != f_q) & (fa >= 0) & on_silhouette & facing_pair
     c_a = jnp.where(a_is_p[..., None], img_p, img_q)
     c_o = jnp.where(a_is_p[..., None], img_q, img_p)
     into_o = jnp.where(active & (t > 0.5), t - 0.5, 0.0)[..., None] * (c_a - c_o)
@@ -274,6 +286,7 @@ def _antialias(image, face_index, depth, triangles_2d, faces):
             points[hi],
             triangles_2d,
             silhouette,
+            axis,
         )
         pad_p = [(0, 0)] * 3
         pad_q = [(0, 0)] * 3
@@ -392,10 +405,8 @@ def render(
     **Arguments:**
 
     - `mesh`: a `gfxlab.mesh.Mesh`: vertex colours (white if absent), a `texture` with
-      `uvs` (multiplied by the colours if both), explicit `normals` (else
-      `vertex_normals`).
-    - `camera`: a `gfxlab.viewing.Camera`; batched fields (`eye (B, 3)`, ...) render a
-      batch of views.
+      `uvs` (times the colours if both), `normals` (else `vertex_normals`).
+    - `camera`: a `gfxlab.viewing.Camera`; batched fields render a batch of views.
     - `shape`: image shape `(H, W)` (static).
     - `mode`: `"soft"` (SoftRas) or `"hard"` (z-buffer with edge antialiasing).
     - `sigma` (pixels^2), `gamma`: SoftRas' sharpness and depth temperature (soft only;
@@ -410,24 +421,19 @@ def render(
       nearer than the near plane are always dropped.
     - `antialias`: edge antialiasing of the hard image (gives silhouettes gradients).
     - `eps`, `eps_background`, `tile_size`, `capacity`, `tiles_per_step`: as in
-      `soft_rasterize`; `capacity=None` measures it (eagerly: one more compiled call).
+      `soft_rasterize`; `capacity=None` measures it (eagerly: one more compiled call;
+      traced geometry, as in `gfxlab.fit`, needs one from `tile_capacity`).
       A capacity that a tile outgrows is grown with a warning and the call rerun (in
       `gfxlab.fit`, its steps); in your own `jax.jit`, it is an error naming one.
 
     **Returns:** a `Rendering`.
     """
-    vertices, camera, batched, attributes = check_render_inputs(mesh, camera, vertices, attributes)
-    params, ambient, background, sizes = render_options(
-        mesh,
-        vertices.dtype,
-        sigma,
-        gamma,
-        ambient,
-        background,
-        eps,
-        eps_background,
-        (tile_size, capacity, tiles_per_step),
+    mesh, vertices, camera, batched, attributes = check_render_inputs(
+        mesh, camera, vertices, attributes
     )
+    sizes = (tile_size, capacity, tiles_per_step)
+    options = (sigma, gamma, ambient, background, eps, eps_background, sizes)
+    params, ambient, background, sizes = render_options(mesh, vertices.dtype, *options)
     flags = (antialias, cull_backfaces, _REFERENCE.get())
     config = render_config(
         mesh, vertices, camera, batched, params[0], mode, shape, eps=eps, sizes=sizes, flags=flags

@@ -32,6 +32,7 @@ from .._checks import (
 )
 from .._pixels import row_to_y
 from ..brdf import Lambert
+from ..brdf._models import with_checked_fields
 
 __all__ = ["PointLight", "DirectionalLight", "shade", "sample_texture"]
 
@@ -164,7 +165,8 @@ def check_brdf(brdf):
             f"`brdf` must be a gfxlab.brdf model ({_MODELS}) or a callable eqx.Module "
             f"f(wi, wo, n), got {brdf!r:.40}"
         )
-    return brdf
+    # traced parameters carry their range checks from here: `render`'s core drops its own
+    return with_checked_fields(brdf)
 
 
 def check_ambient(ambient, channels: int, dtype):

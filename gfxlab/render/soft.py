@@ -272,7 +272,7 @@ def tile_capacity(
 
     **Returns:** the capacity, an `int`.
     """
-    _, camera, batched, _ = check_render_inputs(mesh, camera, None, None)
+    mesh, _, camera, batched, _ = check_render_inputs(mesh, camera, None, None)
     height, width = static_shape(shape)
     if not isinstance(slack, float | int) or not slack >= 1:
         raise ValueError(f"`slack` must be a number >= 1, got {slack!r}")
