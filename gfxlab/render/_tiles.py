@@ -45,8 +45,8 @@ def pixel_face_planes(points, tri):
     Written per coordinate (no trailing axes of size 2 or 3, which XLA runs slower);
     per-face quantities (edges, reciprocal lengths and area) are computed once per face.
 
-    Each edge is evaluated from its lexicographically smaller end, whichever face it
-    belongs to: two faces that share an edge get edge functions of exactly opposite
+    Each edge is evaluated about its midpoint, which does not depend on the face's
+    direction: two faces that share an edge get edge functions of exactly opposite
     sign, so a pixel centre on the edge is inside at least one of them (evaluated from
     each face's own corner, rounding could leave it outside both: a hole).
     """
@@ -57,20 +57,16 @@ def pixel_face_planes(points, tri):
     edge_fn = []
     for k in range(3):
         ax, ay, bx, by = cx[k], cy[k], cx[(k + 1) % 3], cy[(k + 1) % 3]
-        flip = jax.lax.stop_gradient((bx < ax) | ((bx == ax) & (by < ay)))
-        ax, bx = jnp.where(flip, bx, ax), jnp.where(flip, ax, bx)
-        ay, by = jnp.where(flip, by, ay), jnp.where(flip, ay, by)
         ex, ey = bx - ax, by - ay
         length2 = ex * ex + ey * ey
         nonzero = length2 > 0
         inv_length2 = jnp.where(nonzero, 1.0 / jnp.where(nonzero, length2, 1.0), 0.0)
-        rx, ry = px - ax, py - ay
-        t = jnp.clip((rx * ex + ry * ey) * inv_length2, 0.0, 1.0)
+        rx, ry = px - (ax + bx) * 0.5, py - (ay + by) * 0.5  # from the midpoint
+        t = jnp.clip((rx * ex + ry * ey) * inv_length2, -0.5, 0.5)
         ox, oy = rx - t * ex, ry - t * ey
         dk = ox * ox + oy * oy
         d2 = dk if d2 is None else jnp.minimum(d2, dk)
-        sx, sy = jnp.where(flip, -ex, ex), jnp.where(flip, -ey, ey)  # the face's direction
-        edge_fn.append(sx * ry - sy * rx)  # twice the signed area opposite corner k + 2
+        edge_fn.append(ex * ry - ey * rx)  # twice the signed area opposite corner k + 2
     area2 = (cx[1] - cx[0]) * (cy[2] - cy[0]) - (cy[1] - cy[0]) * (cx[2] - cx[0])
     proper = area2 != 0
     sign = jnp.sign(area2)
