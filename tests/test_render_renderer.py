@@ -359,6 +359,7 @@ jax.config.update("jax_enable_x64", True)
 sys.path.insert(0, sys.argv[1])
 from test_render_renderer import grid_plane
 from gfxlab import render as R
+from gfxlab.mesh import Mesh
 from gfxlab.viewing import Camera
 found = []
 for renderer, n, dtype in [(R.render, 5, np.float32), (R.render_dense, 2, np.float32)]:
@@ -372,14 +373,32 @@ for renderer, n, dtype in [(R.render, 5, np.float32), (R.render_dense, 2, np.flo
     single = renderer(plane, Camera(eyes[3]), (16, 16), mode="hard")
     found.append(["batched vs single", n, str(dtype), 0.0,
                   int((np.asarray(batched.face_index[3]) != np.asarray(single.face_index)).sum())])
+from gfxlab.mesh import cube
+for size in (40, 44):  # the front square's diagonal runs through pixel centres
+    box32 = Mesh(cube(1.0).vertices.astype(jnp.float32), cube(1.0).faces)
+    r = R.render(box32, Camera(jnp.array([0.0, 0.0, 4.0], jnp.float32)), (size, size),
+                 mode="hard", cull_backfaces=True)
+    covered = np.asarray(r.face_index) >= 0
+    rows, cols = np.nonzero(covered)
+    box = covered[rows.min() : rows.max() + 1, cols.min() : cols.max() + 1]
+    found.append(["culled cube", size, "float32", 4.0, int((~box).sum())])
+sys.path.insert(0, sys.argv[1])
+from test_render_renderer import triangle_along
+camera = Camera(jnp.array([0.0, 0.0, 5.0], jnp.float32))
+for direction in [(0.54, 0.84), (-0.59, 0.81)]:  # an edge 1e-6 px outside a centre
+    mesh = triangle_along(camera, (32, 32), (16.0, 16.0), direction, 1e-6)
+    mesh = Mesh(mesh.vertices.astype(jnp.float32), mesh.faces)
+    alpha = float(R.render(mesh, camera, (32, 32), mode="hard").alpha[15, 16])
+    found.append(["edge 1e-6 px away", 0, "float32", 5.0, int(abs(alpha - 0.5) > 0.05)])
 print(json.dumps(found))
 """
 
 
 def test_shared_edges_through_pixel_centres_leave_no_holes():
-    """Seen along its axis, a grid's inner edges run through pixel centres. Each edge is
-    evaluated the same way from both faces, so a centre on it is inside at least one:
-    the square is solid at every distance, and a batch of views equals single views.
+    """Seen along its axis, a grid's (or a cube's) inner edges run through pixel centres;
+    a centre on an edge is inside at least one of its faces: the square is solid at
+    every distance, and a batch of views equals single views. A pixel whose centre is
+    a hair outside an edge is antialiased to about 1/2 (it was once 1).
     Run with the user's XLA flags: the suite's fast-compile flags skip the fused
     multiply-adds whose rounding made holes (tests/conftest.py)."""
     env = dict(os.environ, XLA_FLAGS=os.environ["GFXLAB_USER_XLA_FLAGS"], JAX_PLATFORMS="cpu")
@@ -392,7 +411,7 @@ def test_shared_edges_through_pixel_centres_leave_no_holes():
     )
     assert out.returncode == 0, out.stderr[-3000:]
     rows = json.loads(out.stdout.strip().splitlines()[-1])
-    assert len(rows) == 2 * 17
+    assert len(rows) == 2 * 17 + 2 + 2
     assert [row for row in rows if row[-1]] == []  # (renderer, n, dtype, eye z, holes)
 
 
@@ -676,6 +695,8 @@ def test_traced_brdf_parameters_are_checked_inside_render(model, value, match):
 
     with pytest.raises(ValueError, match=match):
         checked_jit(image)(jnp.asarray(value))
+    with pytest.raises(ValueError, match=r"`brdf\.\w+` must be a scalar in `render`"):
+        image(jnp.full((3,), 0.5))
     good = {0.0: 0.5, -3.0: 3.0}.get(value, 0.5)
     assert np.isfinite(np.asarray(checked_jit(image)(jnp.asarray(good)))).all()
 

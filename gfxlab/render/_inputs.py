@@ -175,7 +175,15 @@ def check_shading(lights, brdf, ambient, channels: int):
     takes neither a `brdf` nor an `ambient` term; a concrete 0 is the default)."""
     lights = _check_lights(lights, channels)
     if lights is not None:
-        return lights, check_brdf(brdf)
+        brdf = check_brdf(brdf)
+        for name in getattr(brdf, "_RANGES", ()):  # a gfxlab model: one surface
+            if jnp.shape(getattr(brdf, name)) != ():
+                raise ValueError(
+                    f"`brdf.{name}` must be a scalar in `render` (one material for the "
+                    "mesh; its colour comes from the mesh's colours or texture), got "
+                    f"shape {jnp.shape(getattr(brdf, name))}"
+                )
+        return lights, brdf
     if brdf is not None:
         raise ValueError("`brdf` shades lit renders only: pass `lights=` as well")
     zero = not is_traced(ambient) and not np.any(np.asarray(ambient))

@@ -45,19 +45,21 @@ def pixel_face_planes(points, tri):
     Written per coordinate (no trailing axes of size 2 or 3, which XLA runs slower);
     per-face quantities (edges, reciprocal lengths and area) are computed once per face.
 
-    Each edge is evaluated about its midpoint, which does not depend on the face's
-    direction: two faces that share an edge get edge functions of exactly opposite
-    sign, so a pixel centre on the edge is inside at least one of them (evaluated from
-    each face's own corner, rounding could leave it outside both: a hole).
+    A pixel centre on an edge shared by two faces must be inside at least one of them.
+    Each edge is evaluated about its midpoint (symmetric in its ends), and a point
+    counts as inside up to the edge function's rounding error: the compiler fuses
+    multiply-adds differently for the three edges of a face, so the two faces' values
+    need not be exact negatives, and a centre outside both was a hole.
     """
     px, py = points[:, 0:1], points[:, 1:2]  # (P, 1)
     cx = [tri[None, :, k, 0] for k in range(3)]  # (1, K) each
     cy = [tri[None, :, k, 1] for k in range(3)]
     d2 = None
-    edge_fn = []
+    edge_fn, spans = [], []
     for k in range(3):
         ax, ay, bx, by = cx[k], cy[k], cx[(k + 1) % 3], cy[(k + 1) % 3]
         ex, ey = bx - ax, by - ay
+        spans.append(jnp.abs(ex) + jnp.abs(ey))
         length2 = ex * ex + ey * ey
         nonzero = length2 > 0
         inv_length2 = jnp.where(nonzero, 1.0 / jnp.where(nonzero, length2, 1.0), 0.0)
@@ -70,7 +72,11 @@ def pixel_face_planes(points, tri):
     area2 = (cx[1] - cx[0]) * (cy[2] - cy[0]) - (cy[1] - cy[0]) * (cx[2] - cx[0])
     proper = area2 != 0
     sign = jnp.sign(area2)
-    inside = proper & (edge_fn[0] * sign >= 0) & (edge_fn[1] * sign >= 0) & (edge_fn[2] * sign >= 0)
+    # |rounding error| <= a few ulps of |e| |r|, and |r| <= the face's span (+ a tile)
+    ulps = 8 * jnp.finfo(tri.dtype).eps * (spans[0] + spans[1] + spans[2] + 16.0)
+    slack = [jax.lax.stop_gradient(ulps * span) for span in spans]
+    inside = proper & (edge_fn[0] * sign >= -slack[0])
+    inside = inside & (edge_fn[1] * sign >= -slack[1]) & (edge_fn[2] * sign >= -slack[2])
     inv_area = 1.0 / jnp.where(proper, area2, 1.0)
     bary = [jnp.clip(edge_fn[(k + 1) % 3] * inv_area, 0.0, 1.0) for k in range(3)]
     inv_total = 1.0 / jnp.maximum(bary[0] + bary[1] + bary[2], 1e-12)

@@ -212,9 +212,11 @@ def _pair_deltas(img_p, img_q, f_p, f_q, d_p, d_q, pt_p, pt_q, tri, silhouette, 
     po = jnp.where(a_is_p[..., None], pt_q, pt_p)
     t_a = tri[jnp.maximum(fa, 0)]  # (..., 3, 2)
     e_a, e_o = _edge_values(t_a, pa), _edge_values(t_a, po)
-    exits = (e_o < 0) & (e_a >= 0)
+    # `pa` is inside face `a` as rasterised, within rounding: an edge it is on, by
+    # this evaluation just outside, is crossed at t = 0.
+    exits = (e_o < 0) & (e_a > e_o)
     denom = jnp.where(exits, e_a - e_o, 1.0)
-    t = jnp.where(exits, e_a / denom, 2.0)  # where the edge crosses pa -> po
+    t = jnp.where(exits, jnp.maximum(e_a, 0.0) / denom, 2.0)  # where it crosses pa -> po
     t_exit = jax.lax.stop_gradient(t)
     k = jnp.argmin(t_exit, -1)[..., None]
     t = jnp.take_along_axis(t, k, -1)[..., 0]
