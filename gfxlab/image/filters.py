@@ -255,11 +255,17 @@ def median_filter(
                 f"`size` must give a window of at most {MAX_NETWORK_SIZE} pixels (a documented "
                 f"size limit), got {kh} x {kw}"
             )
-        footprint = np.ones((kh, kw), dtype=bool)
+        key = _full_window(kh, kw)
     else:
-        footprint = _check_footprint(footprint)
-    key = tuple(map(tuple, footprint.tolist()))
+        key = tuple(map(tuple, _check_footprint(footprint).tolist()))
     return _median_filter(image, cval, footprint=key, mode=mode, guard_cval=is_traced(cval))
+
+
+@functools.cache
+def _full_window(kh: int, kw: int) -> tuple[tuple[bool, ...], ...]:
+    """The static footprint of a full `kh x kw` window: one object per size, which the
+    jit cache matches by identity (a new nested tuple each call costs ~15 us)."""
+    return tuple(tuple(row) for row in np.ones((kh, kw), dtype=bool).tolist())
 
 
 @functools.partial(checked_jit, static_argnames=("footprint", "mode", "guard_cval"))
