@@ -27,7 +27,7 @@ from ..mesh import check_faces
 from ..viewing import Camera
 from ._project import check_mesh_camera, measured_tile_count
 from ._tiles import any_traced, check_options, resolve_capacity
-from .shading import _check_lights, check_brdf
+from .shading import _check_lights, check_ambient, check_brdf
 
 
 class RenderConfig(NamedTuple):
@@ -149,25 +149,13 @@ def render_options(mesh, dtype, sigma, gamma, ambient, background, eps, eps_back
         )
     xp = np if isinstance(background, np.ndarray) else jnp
     background = xp.broadcast_to(background, (channels,))
-    ambient = _float_option(ambient, "ambient", dtype)
-    if ambient.ndim > 1 or ambient.size not in (1, channels):
-        raise ValueError(
-            f"`ambient` must be a scalar or a colour ({channels},), got shape {ambient.shape}"
-        )
-    # Every rendering uses the background but only a lit one the ambient term: the
-    # ambient check rides on the background, so that it is never dead code under jit.
-    background = _checked_alongside(background, ambient, "ambient")
+    # only a lit render uses `ambient` (an unlit one refuses any but a concrete 0:
+    # `check_shading`), so its traced check is never dead code
+    ambient = check_ambient(_float_option(ambient, "ambient", dtype), channels, dtype)
     eps_background = _float_option(eps_background, "eps_background", dtype)
     check_shape(eps_background, "eps_background", ())
     eps_background = positive(eps_background, "eps_background")
     return (sigma, gamma, eps_background), ambient, background, tuple(sizes)
-
-
-def _checked_alongside(x, other, name: str):
-    """`x`, after checking that `other` is finite and >= 0: eagerly at once, under `jit`
-    through `x` (so the check runs whenever `x` is used)."""
-    bad = ~jnp.all(jnp.isfinite(other) & (other >= 0))
-    return value_error_if(x, bad, f"`{name}` must be finite and >= 0")
 
 
 def check_shading(lights, brdf, ambient, channels: int):

@@ -17,6 +17,7 @@ from __future__ import annotations
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 from .._checks import (
@@ -170,13 +171,20 @@ def check_brdf(brdf):
 
 
 def check_ambient(ambient, channels: int, dtype):
-    """`ambient` as a finite `dtype` array >= 0, a scalar or a `(channels,)` colour."""
-    ambient = finite_float(ambient, "ambient").astype(dtype)
+    """`ambient` as a `dtype` array, finite and >= 0, a scalar or a `(channels,)` colour.
+    A NumPy value (as `render` passes its options) is checked on the host, without a
+    JAX dispatch; a traced one under `jit`, through the returned value."""
+    if isinstance(ambient, np.ndarray) and ambient.dtype.kind in "iuf":
+        ambient = ambient.astype(dtype)
+    else:
+        ambient = as_float(ambient, "ambient").astype(dtype)
     if ambient.ndim > 1 or ambient.size not in (1, channels):
         raise ValueError(
             f"`ambient` must be a scalar or a colour ({channels},), got shape {ambient.shape}"
         )
-    return value_error_if(ambient, ambient < 0, "`ambient` must be finite and >= 0")
+    xp = np if isinstance(ambient, np.ndarray) else jnp
+    bad = ~(xp.isfinite(ambient) & (ambient >= 0))
+    return value_error_if(ambient, bad, "`ambient` must be finite and >= 0")
 
 
 def shade(
