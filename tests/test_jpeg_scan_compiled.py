@@ -7,12 +7,14 @@ message) on mutated files."""
 from __future__ import annotations
 
 import io
+import os
 import warnings
 
 import numpy as np
 import pytest
 from PIL import Image
 from test_jpeg_fuzz import SEEDS, _mutate
+from user_flags import run_with_user_xla_flags
 
 from gfxlab import jpeg
 
@@ -78,3 +80,54 @@ def test_compiled_is_true_false_or_none():
     with pytest.raises(TypeError, match="`compiled` must be True, False or None, got 1"):
         jpeg.encode(np.zeros((8, 8), np.uint8), compiled=1)
     assert np.array_equal(jpeg.decode(data, compiled=np.bool_(True)), jpeg.decode(data))
+
+
+# Encode and decode 4:2:0, 4:4:4 and grey files through the compiled programs and
+# compare them with Pillow; prints whether the programs were compiled with options.
+EMITTERS_SCRIPT = """
+import io, json, sys
+import numpy as np
+from PIL import Image
+from gfxlab import jpeg
+from gfxlab._xla_options import legacy_cpu_emitters
+
+rng = np.random.default_rng(3)
+y, x = np.mgrid[:67, :93]
+img = np.stack([120 + 90 * np.sin(x / 6 + y / 9), 128 + 70 * np.cos(x / 4), 2.0 * y], -1)
+img = np.clip(img + rng.normal(0, 25, img.shape), 0, 255).astype(np.uint8)
+rows = []
+for image, subsampling in [(img, 2), (img, 0), (img[..., 1].copy(), 2)]:
+    buf = io.BytesIO()
+    Image.fromarray(image).save(buf, "JPEG", quality=80, subsampling=subsampling)
+    ours = jpeg.encode(image, quality=80, subsampling=["4:4:4", "", "4:2:0"][subsampling],
+                       compiled=True)
+    decoded = jpeg.decode(buf.getvalue(), compiled=True)
+    pillow = np.asarray(Image.open(io.BytesIO(buf.getvalue())))
+    rows.append([ours == buf.getvalue(), bool(np.array_equal(decoded, pillow))])
+print(json.dumps({"options": legacy_cpu_emitters(), "rows": rows}))
+"""
+
+
+def test_programs_compiled_with_legacy_emitters_give_pillows_bytes():
+    """With the user's XLA flags, encode's and decode's compiled programs select XLA's
+    legacy CPU emitters (`gfxlab._xla_options`) and still give Pillow's bytes and
+    pixels. In a child process: the suite's own flags already select those emitters
+    for every program, so in-process the option is never passed."""
+    user = os.environ["GFXLAB_USER_XLA_FLAGS"]
+    result = run_with_user_xla_flags(EMITTERS_SCRIPT)
+    assert result["rows"] == [[True, True]] * 3
+    if "xla_cpu_use_fusion_emitters" not in user:
+        assert result["options"] == {"xla_cpu_use_fusion_emitters": False}
+
+
+def test_a_users_emitter_flag_wins(monkeypatch):
+    import jax
+
+    from gfxlab._xla_options import legacy_cpu_emitters
+
+    monkeypatch.setenv("XLA_FLAGS", "--xla_cpu_use_fusion_emitters=true")
+    assert legacy_cpu_emitters.__wrapped__() is None
+    monkeypatch.setenv("XLA_FLAGS", "")
+    on_cpu = jax.default_backend() == "cpu"
+    expected = {"xla_cpu_use_fusion_emitters": False} if on_cpu else None
+    assert legacy_cpu_emitters.__wrapped__() == expected

@@ -2,7 +2,6 @@
 gradients, textures, batches, sharding and bad inputs."""
 
 import functools
-import json
 import os
 import subprocess
 import sys
@@ -16,6 +15,7 @@ import pytest
 from jax.test_util import check_grads
 from render_scenes import tiny_scene
 from scipy.ndimage import map_coordinates
+from user_flags import run_with_user_xla_flags
 
 from gfxlab import brdf as B
 from gfxlab import render as R
@@ -401,16 +401,7 @@ def test_shared_edges_through_pixel_centres_leave_no_holes():
     a hair outside an edge is antialiased to about 1/2 (it was once 1).
     Run with the user's XLA flags: the suite's fast-compile flags skip the fused
     multiply-adds whose rounding made holes (tests/conftest.py)."""
-    env = dict(os.environ, XLA_FLAGS=os.environ["GFXLAB_USER_XLA_FLAGS"], JAX_PLATFORMS="cpu")
-    out = subprocess.run(
-        [sys.executable, "-c", HOLES_SCRIPT, os.path.dirname(__file__)],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert out.returncode == 0, out.stderr[-3000:]
-    rows = json.loads(out.stdout.strip().splitlines()[-1])
+    rows = run_with_user_xla_flags(HOLES_SCRIPT, os.path.dirname(__file__))
     assert len(rows) == 2 * 17 + 2 + 2
     assert [row for row in rows if row[-1]] == []  # (renderer, n, dtype, eye z, holes)
 

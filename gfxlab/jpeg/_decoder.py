@@ -23,6 +23,7 @@ import warnings
 import numpy as np
 
 from gfxlab._plain_args import flag
+from gfxlab._xla_options import legacy_cpu_emitters
 from gfxlab.jpeg import _libjpeg as L
 from gfxlab.jpeg._entropy import HuffmanTable, JPEGError, decode_scan
 from gfxlab.jpeg._tables import ZIGZAG
@@ -396,7 +397,7 @@ def _compiled_reconstruct(geometry, stride: int):
         planes = L.upsample_planes(samples, factors, height, width, jnp)
         return _colour(planes, colour, jnp)
 
-    return jax.jit(reconstruct)
+    return jax.jit(reconstruct, compiler_options=legacy_cpu_emitters())
 
 
 def check_compiled(compiled) -> bool | None:

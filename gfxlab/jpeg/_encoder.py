@@ -455,13 +455,17 @@ def compiled_band_events(lay: Layout):
     import jax
     import jax.numpy as jnp
 
+    from gfxlab._xla_options import legacy_cpu_emitters
+
     def events(image, divisors, row):
         band = jax.lax.dynamic_slice_in_dim(image, row, lay.padded[0], axis=0)
         quantized, dc_difference = scan_coefficients(band, divisors, lay, jnp)
         coded = block_events(quantized, dc_difference, lay.table_ids, jnp, order="fdct")
         return (coded, *_edge_dcs(quantized, lay, jnp))
 
-    events, zigzag = jax.jit(events), jax.jit(_zigzag)
+    options = legacy_cpu_emitters()  # about twice as fast on CPU (see the module)
+    events = jax.jit(events, compiler_options=options)
+    zigzag = jax.jit(_zigzag, compiler_options=options)
     rows = {}  # band offsets kept on the device: a host scalar is transferred per call
 
     def run(image, divisors, row: int):

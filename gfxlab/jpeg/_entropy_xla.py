@@ -33,6 +33,7 @@ import functools
 
 import numpy as np
 
+from gfxlab._xla_options import legacy_cpu_emitters
 from gfxlab.jpeg._entropy import _fast_table
 from gfxlab.jpeg._tables import ZIGZAG
 
@@ -215,7 +216,7 @@ def _program(out_size: int):
         pos_next = jnp.where(done, pos - k + 64, pos - k + k_next)
         return jnp.where(bad > 0, p, p_next), jnp.where(bad > 0, -bad, pos_next), out
 
-    @jax.jit
+    @functools.partial(jax.jit, compiler_options=legacy_cpu_emitters())
     def run(stream, luts, per_block, dest, n_blocks):
         b = jnp.concatenate([stream, jnp.zeros(3, jnp.uint8)]).astype(jnp.uint32)
         window = b[:-3] << 24 | b[1:-2] << 16 | b[2:-1] << 8 | b[3:]
