@@ -82,15 +82,35 @@ def test_compiled_is_true_false_or_none():
     assert np.array_equal(jpeg.decode(data, compiled=np.bool_(True)), jpeg.decode(data))
 
 
-# Encode and decode 4:2:0, 4:4:4 and grey files through the compiled programs and
-# compare them with Pillow; prints whether the programs were compiled with options.
+# Records the compiler options of every `jax.jit` program, then encodes and decodes
+# 4:2:0, 4:4:4 and grey files through the compiled programs and compares them with
+# Pillow's. Prints the options per codec program, the helper's answer, and whether this
+# XLA knows the option (an independent probe).
 EMITTERS_SCRIPT = """
-import io, json, sys
+import functools, io, json
+import jax
 import numpy as np
 from PIL import Image
+
+options_of = {}
+real_jit = jax.jit
+def recording_jit(fn=None, **kwargs):
+    if fn is None:
+        return functools.partial(recording_jit, **kwargs)
+    name = f"{fn.__module__}.{fn.__qualname__}"
+    options_of.setdefault(name, kwargs.get("compiler_options"))
+    return real_jit(fn, **kwargs)
+jax.jit = recording_jit
+
 from gfxlab import jpeg
 from gfxlab._xla_options import legacy_cpu_emitters
 
+try:
+    real_jit(lambda x: x + 1, compiler_options={"xla_cpu_use_fusion_emitters": False}).lower(
+        np.int32(0)).compile()
+    knows = True
+except Exception:
+    knows = False
 rng = np.random.default_rng(3)
 y, x = np.mgrid[:67, :93]
 img = np.stack([120 + 90 * np.sin(x / 6 + y / 9), 128 + 70 * np.cos(x / 4), 2.0 * y], -1)
@@ -104,20 +124,36 @@ for image, subsampling in [(img, 2), (img, 0), (img[..., 1].copy(), 2)]:
     decoded = jpeg.decode(buf.getvalue(), compiled=True)
     pillow = np.asarray(Image.open(io.BytesIO(buf.getvalue())))
     rows.append([ours == buf.getvalue(), bool(np.array_equal(decoded, pillow))])
-print(json.dumps({"options": legacy_cpu_emitters(), "rows": rows}))
+codec = {k: v for k, v in options_of.items() if k.startswith("gfxlab.jpeg.")}
+print(json.dumps({"codec": codec, "helper": legacy_cpu_emitters(), "knows": knows,
+                  "rows": rows}))
 """
 
+CODEC_PROGRAMS = {
+    "gfxlab.jpeg._encoder.compiled_band_events.<locals>.events",
+    "gfxlab.jpeg._encoder._zigzag",
+    "gfxlab.jpeg._entropy_xla._program.<locals>.run",
+    "gfxlab.jpeg._decoder._compiled_reconstruct.<locals>.reconstruct",
+}
 
-def test_programs_compiled_with_legacy_emitters_give_pillows_bytes():
-    """With the user's XLA flags, encode's and decode's compiled programs select XLA's
-    legacy CPU emitters (`gfxlab._xla_options`) and still give Pillow's bytes and
-    pixels. In a child process: the suite's own flags already select those emitters
-    for every program, so in-process the option is never passed."""
+
+def test_codec_programs_compile_with_legacy_emitters_and_give_pillows_bytes():
+    """With the user's XLA flags, each of encode's and decode's compiled programs is
+    compiled with XLA's legacy CPU emitters (`gfxlab._xla_options`), unless the user's
+    flags choose the emitters or this XLA lacks the option, and the files and pixels
+    are still Pillow's. In a child process: the suite's own flags choose the legacy
+    emitters for every program, so in-process no option is ever passed."""
     user = os.environ["GFXLAB_USER_XLA_FLAGS"]
     result = run_with_user_xla_flags(EMITTERS_SCRIPT)
     assert result["rows"] == [[True, True]] * 3
-    if "xla_cpu_use_fusion_emitters" not in user:
-        assert result["options"] == {"xla_cpu_use_fusion_emitters": False}
+    options = {"xla_cpu_use_fusion_emitters": False}
+    expected = options if result["knows"] and "fusion_emitters" not in user else None
+    assert result["helper"] == expected
+    codec = result["codec"]
+    assert CODEC_PROGRAMS <= set(codec), codec
+    assert all(codec[name] == expected for name in CODEC_PROGRAMS), codec
+    # The float programs keep XLA's default emitters (faster for them).
+    assert codec["gfxlab.jpeg.compress._compress"] is None
 
 
 def test_a_users_emitter_flag_wins(monkeypatch):
@@ -127,7 +163,16 @@ def test_a_users_emitter_flag_wins(monkeypatch):
 
     monkeypatch.setenv("XLA_FLAGS", "--xla_cpu_use_fusion_emitters=true")
     assert legacy_cpu_emitters.__wrapped__() is None
-    monkeypatch.setenv("XLA_FLAGS", "")
-    on_cpu = jax.default_backend() == "cpu"
-    expected = {"xla_cpu_use_fusion_emitters": False} if on_cpu else None
-    assert legacy_cpu_emitters.__wrapped__() == expected
+    monkeypatch.setenv(
+        "XLA_FLAGS", "--xla_force_host_platform_device_count=1 --xla_cpu_use_fusion_emitters=false"
+    )
+    assert legacy_cpu_emitters.__wrapped__() is None
+    options = {"xla_cpu_use_fusion_emitters": False}
+    try:
+        jax.jit(lambda x: x + 1, compiler_options=options).lower(np.int32(0)).compile()
+        knows = jax.default_backend() == "cpu"
+    except jax.errors.JaxRuntimeError:  # an XLA without the option
+        knows = False
+    # A flag that merely contains the name is not the user's choice.
+    monkeypatch.setenv("XLA_FLAGS", "--xla_dump_to=/tmp/xla_cpu_use_fusion_emitters")
+    assert legacy_cpu_emitters.__wrapped__() == (options if knows else None)

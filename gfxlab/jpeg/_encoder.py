@@ -463,7 +463,7 @@ def compiled_band_events(lay: Layout):
         coded = block_events(quantized, dc_difference, lay.table_ids, jnp, order="fdct")
         return (coded, *_edge_dcs(quantized, lay, jnp))
 
-    options = legacy_cpu_emitters()  # about twice as fast on CPU (see the module)
+    options = legacy_cpu_emitters()  # faster integer kernels on CPU (see the module)
     events = jax.jit(events, compiler_options=options)
     zigzag = jax.jit(_zigzag, compiler_options=options)
     rows = {}  # band offsets kept on the device: a host scalar is transferred per call
