@@ -132,6 +132,12 @@ CASES = [
     (lambda: jpeg.upsample(np.zeros((4, 4)), (8, 8), subsampling="4:2:2"), ValueError, "`chroma`"),
     (lambda: jpeg.psnr(np.zeros((0, 8)), np.zeros((8, 8))), ValueError, "`a`"),
     (lambda: jax.jit(jpeg.encode)(jnp.zeros((8, 8))), TypeError, "`image`"),
+    (
+        lambda: jpeg.encode(np.zeros((0, 8, 8, 3), np.uint8)),
+        ValueError,
+        "`image` is an empty stack",
+    ),
+    (lambda: jpeg.encode(np.zeros((2, 8, 8, 2), np.uint8)), ValueError, "`image` must be a stack"),
     (lambda: jax.jit(jpeg.coefficients)(jnp.zeros((8, 8, 3))), TypeError, "`image`"),
 ]
 

@@ -82,6 +82,39 @@ def test_compiled_is_true_false_or_none():
     assert np.array_equal(jpeg.decode(data, compiled=np.bool_(True)), jpeg.decode(data))
 
 
+def test_disable_jit_takes_the_numpy_path(monkeypatch):
+    # Under jax.disable_jit() the compiled programs would run op by op (minutes for one
+    # 300x400 image): encode and decode must take NumPy, even when asked for `compiled`.
+    import jax
+
+    from gfxlab.jpeg import _decoder, _encoder
+
+    rng = np.random.default_rng(3)
+    image = rng.integers(0, 256, (256, 264, 3), dtype=np.uint8)
+    data = jpeg.encode(image, compiled=True)
+    pixels = jpeg.decode(data, compiled=True)
+
+    def no_program(*args, **kwargs):
+        raise AssertionError("a compiled codec program ran under jax.disable_jit()")
+
+    monkeypatch.setattr(_encoder, "compiled_band_events", no_program)
+    monkeypatch.setattr(_decoder, "_reconstruct_compiled", no_program)
+    monkeypatch.setattr(_decoder, "decode_scan", _python_scan_only(_decoder.decode_scan))
+    with jax.disable_jit():
+        for compiled in (None, True):
+            assert jpeg.encode(image, compiled=compiled) == data
+            assert jpeg.encode(image[None], compiled=compiled) == [data]
+            np.testing.assert_array_equal(jpeg.decode(data, compiled=compiled), pixels)
+
+
+def _python_scan_only(decode_scan):
+    def checked(*args, compiled=None, **kwargs):
+        assert compiled is False, f"decode_scan got compiled={compiled!r} under disable_jit"
+        return decode_scan(*args, compiled=compiled, **kwargs)
+
+    return checked
+
+
 # Records the compiler options of every `jax.jit` program, then encodes and decodes
 # 4:2:0, 4:4:4 and grey files through the compiled programs and compares them with
 # Pillow's. Prints the options per codec program, the helper's answer, and whether this

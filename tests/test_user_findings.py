@@ -227,8 +227,14 @@ def test_decode_takes_a_uint8_array_of_the_file():
     image = np.arange(16 * 16 * 3, dtype=np.uint8).reshape(16, 16, 3)
     data = jpeg.encode(image)
     np.testing.assert_array_equal(jpeg.decode(np.frombuffer(data, np.uint8)), jpeg.decode(data))
-    with pytest.raises(TypeError, match="`data` must be bytes"):
+    with pytest.raises(TypeError, match="`data` as an array must be 1-D uint8.*int16"):
         jpeg.decode(np.frombuffer(data, np.uint8).astype(np.int16))
+    # a concrete JAX array of the bytes is the same file; a traced one is refused by name
+    np.testing.assert_array_equal(jpeg.decode(jnp.frombuffer(data, jnp.uint8)), jpeg.decode(data))
+    with pytest.raises(TypeError, match="`data` must be a concrete byte string.*traced"):
+        jax.jit(jpeg.decode)(jnp.frombuffer(data, jnp.uint8))
+    with pytest.raises(TypeError, match="`data` as an array must be 1-D uint8.*2-D"):
+        jpeg.decode(np.frombuffer(data, np.uint8)[None])
 
 
 def test_project_takes_a_4x4_matrix_and_3d_points():

@@ -401,8 +401,38 @@ def _compiled_reconstruct(geometry, stride: int):
 
 
 def check_compiled(compiled) -> bool | None:
-    """The `compiled` option of `encode` and `decode`: True, False or None."""
-    return flag(compiled, "compiled", optional=True)
+    """The `compiled` option of `encode` and `decode`: True, False or None; False under
+    `jax.disable_jit()`, where the compiled programs would run op by op (minutes for one
+    image, measured) and NumPy gives the same bytes and pixels."""
+    compiled = flag(compiled, "compiled", optional=True)
+    import jax
+
+    return False if jax.config.jax_disable_jit else compiled
+
+
+def _file_bytes(data) -> bytes | bytearray | memoryview:
+    """`decode`'s `data` as a bytes-like object; a 1-D uint8 NumPy or JAX array (e.g.
+    `np.fromfile(path, np.uint8)`) gives its bytes."""
+    import jax
+
+    if isinstance(data, jax.core.Tracer):
+        raise TypeError(
+            "`data` must be a concrete byte string: the file decoder runs on the host and "
+            "cannot be traced under jax.jit / vmap / grad (decode outside, then trace the pixels)"
+        )
+    if isinstance(data, np.ndarray | jax.Array):
+        if data.dtype != np.uint8 or data.ndim != 1:
+            raise TypeError(
+                "`data` as an array must be 1-D uint8 (the file's bytes), got "
+                f"{data.ndim}-D {data.dtype}"
+            )
+        return np.asarray(data).tobytes()
+    if not isinstance(data, bytes | bytearray | memoryview):
+        raise TypeError(
+            "`data` must be bytes, bytearray, memoryview or a 1-D uint8 array, got "
+            f"{type(data).__name__}"
+        )
+    return data
 
 
 def decode(
@@ -425,11 +455,13 @@ def decode(
 
     **Arguments:**
 
-    - `data`: the file's bytes (`bytes`, `bytearray`, `memoryview` or a 1-D uint8 array).
+    - `data`: the file's bytes (`bytes`, `bytearray`, `memoryview` or a 1-D uint8 NumPy
+      or JAX array).
     - `max_pixels`: refuse frames of more pixels than this (`None`: no limit).
     - `compiled`: `True` decodes with the compiled programs whatever the size (worth it
       for many small files of one size), `False` without them (no compilation: a
-      one-off file in a short-lived process); `None` chooses by size.
+      one-off file in a short-lived process); `None` chooses by size. Under
+      `jax.disable_jit()` NumPy always runs (compiled programs would run op by op).
 
     **Returns:**
 
@@ -441,13 +473,7 @@ def decode(
     lossless, 12-bit, CMYK/YCCK files, or frames over `max_pixels`. Every loop is
     bounded by the input length.
     """
-    if isinstance(data, np.ndarray) and data.dtype == np.uint8 and data.ndim == 1:
-        data = data.tobytes()  # e.g. np.fromfile(path, np.uint8)
-    if not isinstance(data, bytes | bytearray | memoryview):
-        raise TypeError(
-            "`data` must be bytes (or bytearray, memoryview, a 1-D uint8 array), got "
-            f"{type(data).__name__}"
-        )
+    data = _file_bytes(data)
     if max_pixels is not None:
         if isinstance(max_pixels, bool) or not isinstance(max_pixels, int | np.integer):
             raise TypeError(f"`max_pixels` must be an int or None, got {max_pixels!r}")

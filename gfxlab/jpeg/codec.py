@@ -81,10 +81,12 @@ def _as_uint8(image, *, batch: bool = False) -> np.ndarray:
         )
     arr = np.asarray(image)
     if batch:
-        if arr.ndim != 4 or arr.shape[-1] not in (1, 3) or arr.shape[0] < 1:
+        if arr.ndim != 4 or arr.shape[-1] not in (1, 3):
             raise ValueError(
                 f"`image` must be a stack (B, H, W, 3) or (B, H, W, 1), got shape {arr.shape}"
             )
+        if arr.shape[0] < 1:
+            raise ValueError(f"`image` is an empty stack (B = 0, shape {arr.shape}): no images")
         arr = arr[..., 0] if arr.shape[-1] == 1 else arr
         sides = arr.shape[1:3]
     else:
@@ -227,7 +229,8 @@ def encode(
       image only the frame header's sampling factors change (as Pillow writes them).
     - `compiled`: `True` runs the compiled programs whatever the size (worth it for many
       small images of one size), `False` NumPy alone (no compilation: a one-off image in
-      a short-lived process); `None` chooses by size.
+      a short-lived process); `None` chooses by size. Under `jax.disable_jit()` NumPy
+      always runs (compiled programs would run op by op, minutes per image).
 
     **Returns:**
 
