@@ -138,6 +138,11 @@ CASES = [
         "`image` is an empty stack",
     ),
     (lambda: jpeg.encode(np.zeros((2, 8, 8, 2), np.uint8)), ValueError, "`image` must be a stack"),
+    (lambda: jpeg.encode("abc"), TypeError, "`image` must be an image array.*got str"),
+    (lambda: jpeg.encode(3), TypeError, "`image` must be an image array.*got int"),
+    (lambda: jpeg.encode(np.zeros((1, 2, 8, 8, 3))), ValueError, "`image` must have shape.*stack"),
+    (lambda: jpeg.decode(np.uint8(5)), TypeError, "`data` as an array must be 1-D uint8.*0-D"),
+    (lambda: jax.vmap(jpeg.encode)(jnp.zeros((2, 8, 8))), TypeError, "jax.jit / vmap / grad"),
     (lambda: jax.jit(jpeg.coefficients)(jnp.zeros((8, 8, 3))), TypeError, "`image`"),
 ]
 

@@ -231,6 +231,7 @@ def test_decode_takes_a_uint8_array_of_the_file():
         jpeg.decode(np.frombuffer(data, np.uint8).astype(np.int16))
     # a concrete JAX array of the bytes is the same file; a traced one is refused by name
     np.testing.assert_array_equal(jpeg.decode(jnp.frombuffer(data, jnp.uint8)), jpeg.decode(data))
+    np.testing.assert_array_equal(jpeg.decode(np.bytes_(data)), jpeg.decode(data))
     with pytest.raises(TypeError, match="`data` must be a concrete byte string.*traced"):
         jax.jit(jpeg.decode)(jnp.frombuffer(data, jnp.uint8))
     with pytest.raises(TypeError, match="`data` as an array must be 1-D uint8.*2-D"):

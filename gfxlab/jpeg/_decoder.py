@@ -415,24 +415,24 @@ def _file_bytes(data) -> bytes | bytearray | memoryview:
     `np.fromfile(path, np.uint8)`) gives its bytes."""
     import jax
 
+    if isinstance(data, bytes | bytearray | memoryview):  # np.bytes_ too
+        return data
     if isinstance(data, jax.core.Tracer):
         raise TypeError(
             "`data` must be a concrete byte string: the file decoder runs on the host and "
             "cannot be traced under jax.jit / vmap / grad (decode outside, then trace the pixels)"
         )
-    if isinstance(data, np.ndarray | jax.Array):
+    if isinstance(data, np.ndarray | np.generic | jax.Array):
         if data.dtype != np.uint8 or data.ndim != 1:
             raise TypeError(
                 "`data` as an array must be 1-D uint8 (the file's bytes), got "
                 f"{data.ndim}-D {data.dtype}"
             )
         return np.asarray(data).tobytes()
-    if not isinstance(data, bytes | bytearray | memoryview):
-        raise TypeError(
-            "`data` must be bytes, bytearray, memoryview or a 1-D uint8 array, got "
-            f"{type(data).__name__}"
-        )
-    return data
+    raise TypeError(
+        "`data` must be bytes, bytearray, memoryview or a 1-D uint8 array, got "
+        f"{type(data).__name__}"
+    )
 
 
 def decode(

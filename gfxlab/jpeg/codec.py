@@ -77,9 +77,16 @@ def _as_uint8(image, *, batch: bool = False) -> np.ndarray:
     if is_traced(image):
         raise TypeError(
             "`image` must be a concrete array: the file codec runs on the host and cannot "
-            "be traced under jax.jit / grad (use `compress` for a differentiable round trip)"
+            "be traced under jax.jit / vmap / grad (use `compress` for a differentiable round "
+            "trip)"
         )
     arr = np.asarray(image)
+    if arr.ndim == 0 or not (np.issubdtype(arr.dtype, np.number) or arr.dtype == np.bool_):
+        raise TypeError(
+            "`image` must be an image array: (H, W), (H, W, 1), (H, W, 3) or a stack "
+            f"(B, H, W, 3) / (B, H, W, 1) of numbers, got {type(image).__name__}"
+            + (f" of dtype {arr.dtype}" if isinstance(image, np.ndarray) else "")
+        )
     if batch:
         if arr.ndim != 4 or arr.shape[-1] not in (1, 3):
             raise ValueError(
@@ -94,7 +101,8 @@ def _as_uint8(image, *, batch: bool = False) -> np.ndarray:
             arr = arr[..., 0]
         if arr.ndim not in (2, 3) or (arr.ndim == 3 and arr.shape[-1] != 3):
             raise ValueError(
-                f"`image` must have shape (H, W), (H, W, 1) or (H, W, 3), got {arr.shape}"
+                "`image` must have shape (H, W), (H, W, 1) or (H, W, 3), or be a stack "
+                f"(B, H, W, 3) / (B, H, W, 1), got {arr.shape}"
             )
         sides = arr.shape[:2]
     if min(sides) < 1 or max(sides) > 65535:
