@@ -32,6 +32,11 @@ RUNTIME = (ValueError, RuntimeError)  # a check firing inside jit (equinox.error
         (lambda: gi.gaussian_filter(None, sigma=1.0), "image"),
         (lambda: gi.gaussian_filter(IMG, sigma=None), "sigma"),
         (lambda: gi.median_filter(IMG, mode="constant", cval=None), "cval"),
+        (lambda: gi.median_filter(IMG, mode="constant", cval=True), "cval"),
+        (lambda: gi.median_filter(IMG, mode="constant", cval=np.True_), "cval"),
+        # a traced boolean is refused as the Python one is (it was accepted under jit)
+        (lambda: jax.jit(lambda c: gi.median_filter(IMG, mode="constant", cval=c))(True), "cval"),
+        (lambda: jax.jit(lambda c: gi.mean_filter(IMG, mode="constant", cval=c))(True), "cval"),
         (lambda: gi.median(None), "values"),
         (lambda: gi.median_of_sum(None, [1, 2]), "x"),
         (lambda: gi.selection_network(5, None), "ranks"),

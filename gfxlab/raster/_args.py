@@ -88,6 +88,8 @@ def float_scalar(x, name: str, *, low=None, high=None, low_open=True, high_open=
             )
         return x
     arr = array_arg(x, name, "a real number")
+    if arr.dtype == np.bool_:  # as the Python bool above, also when traced
+        raise TypeError(f"`{name}` must be a real number, got a boolean array")
     if arr.ndim != 0:
         raise ValueError(f"`{name}` must be a scalar, got shape {tuple(arr.shape)}")
     checked = finite_arg(x if is_traced(x) else np.asarray(x, dtype=float), name)
