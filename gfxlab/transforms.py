@@ -373,7 +373,10 @@ def apply(matrix: Matrix, points: Float[Array, "*batch N d"]) -> Float[Array, "*
     - `matrix`: `(..., d+1, d+1)`.
     - `points`: `(..., N, d)` (a single point `(d,)` is accepted too).
 
-    **Returns:** the transformed points, same shape as `points`.
+    **Returns:** the transformed points, same shape as `points`. A point that maps to
+    `w = 0` (at infinity, e.g. on the camera plane of a perspective matrix) comes back
+    large but finite: `|w|` is clamped to machine epsilon, so values and gradients stay
+    finite in a fit. Test `w` yourself (the last row of `matrix`) where that matters.
     """
     matrix, points = common_finite(matrix, points, names=("matrix", "points"))
     if matrix.ndim < 2 or matrix.shape[-1] != matrix.shape[-2] or matrix.shape[-1] < 2:
