@@ -81,11 +81,10 @@ def _as_uint8(image, *, batch: bool = False) -> np.ndarray:
             "trip)"
         )
     arr = np.asarray(image)
-    if arr.ndim == 0 or not (np.issubdtype(arr.dtype, np.number) or arr.dtype == np.bool_):
+    if arr.ndim == 0:  # a str, number or dict; dtypes are `to_uint8`'s to check
         raise TypeError(
             "`image` must be an image array: (H, W), (H, W, 1), (H, W, 3) or a stack "
-            f"(B, H, W, 3) / (B, H, W, 1) of numbers, got {type(image).__name__}"
-            + (f" of dtype {arr.dtype}" if isinstance(image, np.ndarray) else "")
+            f"(B, H, W, 3) / (B, H, W, 1), got {type(image).__name__}"
         )
     if batch:
         if arr.ndim != 4 or arr.shape[-1] not in (1, 3):
