@@ -3,6 +3,7 @@ gradients, textures, batches, sharding and bad inputs."""
 
 import functools
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -440,7 +441,7 @@ def test_antialiased_coverage_is_continuous_as_an_edge_crosses_a_pixel_centre(di
 def test_a_fit_whose_mesh_outgrows_its_capacity_grows_it_and_reruns():
     """A fit that shrinks the mesh crowds the tiles past the capacity measured at the
     start: `fit` grows the capacity (a warning says so), reruns the steps, and ends
-    where a fit with room for every face from the start ends; it never aborts."""
+    where a fit with room from the start ends; it never aborts."""
     from gfxlab.fit import fit
 
     ball, camera, shape = icosphere(1), Camera(jnp.array([0.0, 0.0, 4.0])), (16, 16)
@@ -452,15 +453,25 @@ def test_a_fit_whose_mesh_outgrows_its_capacity_grows_it_and_reruns():
         return jnp.sum((R.render(mesh, camera, shape, capacity=capacity).alpha - target) ** 2)
 
     options = {"method": "adam", "learning_rate": 0.05, "max_steps": 25}
+    crowded = functools.partial(loss, capacity=measured)
     with pytest.warns(
         RuntimeWarning,
         match=rf"tile capacity {measured} was exceeded; "
-        r"recompiled with \d+; steps 1-25 were rerun",
-    ):
-        grown = fit(functools.partial(loss, capacity=measured), jnp.asarray(1.0), **options)
-    roomy = fit(functools.partial(loss, capacity=ball.num_faces), jnp.asarray(1.0), **options)
+        r"recompiled with (\d+); steps 1-25 were rerun",
+    ) as caught:
+        grown = fit(crowded, jnp.asarray(1.0), **options)
+    needed = int(re.search(r"recompiled with (\d+)", str(caught[-1].message)).group(1))
+    assert measured < needed <= ball.num_faces
+    # The same fit again has room from the start (the capacity stays grown): it runs the
+    # grown program without a warning, and its steps are the rerun's, step for step.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        roomy = fit(crowded, jnp.asarray(1.0), **options)
     assert float(grown.params) < 0.6
     np.testing.assert_allclose(grown.loss_history, roomy.loss_history, rtol=1e-5, atol=1e-6)
+    # and the grown capacity renders what room for every face renders
+    every_face = loss(grown.params, capacity=ball.num_faces)
+    np.testing.assert_allclose(every_face, grown.loss, rtol=1e-6, atol=1e-9)
 
 
 def test_tile_capacity_for_the_hard_path_is_sigma_none():
