@@ -1,14 +1,13 @@
 """gfxlab.image filters: median (selection networks), mean and Gaussian, against SciPy."""
 
 import itertools
-import os
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 import scipy.ndimage as ndi
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from jax.test_util import check_grads
 
@@ -101,8 +100,9 @@ def test_seed_examples_91_and_77():
 
 MEDIAN_DTYPES = (np.uint8, np.float64, np.float32, np.int16)
 MEDIAN_SIZES = (1, 3, 5, 7)
-#: `HYPOTHESIS_PROFILE=thorough` sweeps every size for every mode and dtype.
-THOROUGH = os.environ.get("HYPOTHESIS_PROFILE") == "thorough"
+#: The "thorough" hypothesis profile (`HYPOTHESIS_PROFILE=thorough` or pytest's
+#: `--hypothesis-profile=thorough`) sweeps every size for every mode and dtype.
+THOROUGH = settings().max_examples >= settings.get_profile("thorough").max_examples
 
 
 @pytest.mark.parametrize("dtype", MEDIAN_DTYPES)
