@@ -8,6 +8,7 @@ geometry before compiling.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import logging
 import math
@@ -21,7 +22,7 @@ import numpy as np
 
 from .. import _regrow
 from .._check_errors import HostCheckError
-from .._checks import is_traced, positive, static_int
+from .._checks import is_traced, positive, static_int, trusted_values
 from .._pixels import pixel_centers
 
 
@@ -317,12 +318,28 @@ def _run_tiles(plan, faces, params, ids, order, busy, level):
     return _run_tiles_fwd(plan, faces, params, ids, order, busy, level)[0]
 
 
+def _run_tiles_fwd(plan, *args):
+    # A `jax.grad` of a jitted render traces the primal (into the jit's jaxpr) and later
+    # the fwd rule (to linearize that jaxpr), in another context: one jit, called in the
+    # same context both times (the checked values, the current mesh), is traced once.
+    with trusted_values(), _current_mesh():
+        return _traced_tiles(plan, *args)
+
+
+def _current_mesh():
+    """Enter the current abstract mesh again, so that "none set" and "set to the empty
+    mesh" give jit the same context (a no-op where JAX lacks the API)."""
+    use, get = (getattr(jax.sharding, n, None) for n in ("use_abstract_mesh", "get_abstract_mesh"))
+    return use(get()) if use is not None and get is not None else contextlib.nullcontext()
+
+
 def _padded_points(plan, dtype):
     points = tile_points(plan.shape, plan.tile_size, dtype)
     return jnp.concatenate([points, points[:1]])  # the padding tile (index T)
 
 
-def _run_tiles_fwd(plan, faces, params, ids, order, busy, level):
+@functools.partial(jax.jit, static_argnums=0, inline=True)
+def _traced_tiles(plan, faces, params, ids, order, busy, level):
     dtype = jax.tree_util.tree_leaves(faces)[0].dtype
     points = _padded_points(plan, dtype)
     empty = _empty_value(plan, points, faces, params)
