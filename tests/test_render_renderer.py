@@ -492,7 +492,9 @@ def test_tile_capacity_for_the_hard_path_is_sigma_none():
 
 def test_sharded_views_equal_unsharded(tmp_path):
     """A child process with two CPU devices renders the four views sharded (two per
-    device); they equal this process's unsharded batch (`batched_views`)."""
+    device); they equal this process's unsharded batch (`batched_views`). Under a
+    `jax.set_mesh` mesh with Explicit axes, sharding is a named error (JAX's own names
+    no argument), unsharded views still render; under an Auto-axes mesh, sharded ones."""
     mesh, plain = batched_views()
     arrays = dict(vertices=mesh.vertices, faces=mesh.faces, colors=mesh.colors, eyes=EYES)
     np.savez(tmp_path / "scene.npz", **arrays)
@@ -512,6 +514,29 @@ def test_sharded_views_equal_unsharded(tmp_path):
         split = R.render(mesh, sharded, (9, 9), sigma=0.5)
         assert len(split.color.sharding.device_set) == 2
         np.save(sys.argv[1] + "/split.npy", np.asarray(split.color))
+        # `jax.make_mesh` axes are Explicit by default: sharding there is a named error;
+        # unsharded views render there, and sharded ones under an Auto-axes mesh.
+        explicit = jax.make_mesh((2,), ("views",))
+        auto = jax.make_mesh((2,), ("views",), axis_types=(jax.sharding.AxisType.Auto,))
+        errors = []
+        with jax.set_mesh(explicit):
+            for call in (lambda: R.shard_cameras(cameras),
+                         lambda: R.render(mesh, sharded, (9, 9), sigma=0.5)):
+                try:
+                    call()
+                    errors.append(None)
+                except ValueError as error:
+                    errors.append(str(error))
+            plain_here = R.render(mesh, cameras, (9, 9), sigma=0.5)
+        assert errors[0].startswith("`shard_cameras` cannot run here: the mesh set by "
+                                    "`jax.set_mesh` has Explicit axes ('views',)"), errors
+        assert errors[1].startswith("`camera` is sharded over 2 devices, but the mesh"), errors
+        assert "axis_types=(jax.sharding.AxisType.Auto, ...)" in errors[1], errors
+        with jax.set_mesh(auto):
+            in_auto = R.render(mesh, R.shard_cameras(cameras), (9, 9), sigma=0.5)
+        assert len(in_auto.color.sharding.device_set) == 2
+        np.save(sys.argv[1] + "/explicit.npy", np.asarray(plain_here.color))
+        np.save(sys.argv[1] + "/auto.npy", np.asarray(in_auto.color))
         print("ok")
     """)
     # Two CPU devices, on top of the suite's compile flags (tests/conftest.py).
@@ -526,7 +551,8 @@ def test_sharded_views_equal_unsharded(tmp_path):
     )
     assert out.returncode == 0, out.stderr[-3000:]
     assert out.stdout.strip().endswith("ok")
-    np.testing.assert_allclose(np.load(tmp_path / "split.npy"), plain.color, atol=1e-12)
+    for name in ("split", "explicit", "auto"):
+        np.testing.assert_allclose(np.load(tmp_path / f"{name}.npy"), plain.color, atol=1e-12)
 
 
 def test_bad_inputs():

@@ -70,6 +70,41 @@ def camera_batch(camera: Camera) -> int | None:
     return next(iter(sizes.values()), None)
 
 
+def _explicit_axes() -> tuple[str, ...]:
+    """Names of the Explicit axes of the mesh set by `jax.set_mesh` (none where JAX lacks
+    the API or no mesh is set)."""
+    get = getattr(jax.sharding, "get_abstract_mesh", None)
+    explicit = getattr(getattr(jax.sharding, "AxisType", None), "Explicit", None)
+    mesh = get() if get is not None else None
+    if mesh is None or explicit is None or getattr(mesh, "empty", True):
+        return ()
+    return tuple(n for n, t in zip(mesh.axis_names, mesh.axis_types, strict=True) if t == explicit)
+
+
+def check_mesh_axes(name: str, **inputs) -> None:
+    """Under a `jax.set_mesh` mesh with Explicit axes, refuse `name`: always when no
+    `inputs` are given (`shard_cameras`), else when a concrete array of one of them
+    lies on several devices (`render`, naming that input). The renderer shards views on
+    Auto axes only, and JAX's own error there names no argument ("context mesh ...
+    should match the aval mesh"); unsharded inputs render under any mesh."""
+    explicit = _explicit_axes()
+    if not explicit:
+        return
+    fix = (
+        f"the mesh set by `jax.set_mesh` has Explicit axes {explicit}, and `{name}` shards "
+        "views on Auto axes only: make the mesh with `axis_types=(jax.sharding.AxisType"
+        ".Auto, ...)`, or shard and render outside `jax.set_mesh`"
+    )
+    if not inputs:
+        raise ValueError(f"`{name}` cannot run here: {fix}")
+    for argument, tree in inputs.items():
+        for x in jax.tree_util.tree_leaves(tree):
+            if isinstance(x, jax.Array) and not is_traced(x) and len(x.sharding.device_set) > 1:
+                raise ValueError(
+                    f"`{argument}` is sharded over {len(x.sharding.device_set)} devices, but {fix}"
+                )
+
+
 def batched_camera(camera: Camera, batch: int) -> Camera:
     """Every field of a camera (see `camera_batch`) with the leading batch axis."""
     fields = {}

@@ -43,6 +43,7 @@ from ._inputs import (
     antialias_inputs,
     batched_camera,
     camera_batch,
+    check_mesh_axes,
     check_render_inputs,
     check_rendering,
     check_shading,
@@ -430,6 +431,7 @@ def render(
 
     **Returns:** a `Rendering`.
     """
+    check_mesh_axes("render", mesh=mesh, camera=camera, vertices=vertices)
     mesh, vertices, camera, batched, attributes = check_render_inputs(
         mesh, camera, vertices, attributes
     )
@@ -488,9 +490,13 @@ def shard_cameras(camera: Camera, devices=None) -> Camera:
 
     `render` of the result runs sharded (`jax.sharding`): each device renders its share
     of the views. The batch size must be a multiple of the number of devices.
+    The views are sharded on an Auto mesh axis: under a `jax.set_mesh` mesh whose axes
+    are Explicit (`jax.make_mesh`'s default), this and `render` of sharded inputs are
+    errors saying so; a mesh made with `axis_types=(jax.sharding.AxisType.Auto,)` works.
     """
     if not isinstance(camera, Camera):
         raise TypeError(f"`camera` must be a gfxlab.viewing.Camera, got {type(camera).__name__}")
+    check_mesh_axes("shard_cameras")
     devices = jax.devices() if devices is None else list(devices)
     batch = camera_batch(camera)
     if batch is None or batch % len(devices):
