@@ -1,6 +1,34 @@
 """Shared test setup: float64 everywhere, hypothesis profile, jit/no-jit fixture."""
 
 import os
+import pathlib
+
+# A larger young generation for the cyclic collector, in this process and (through
+# tests/_gc_startup/sitecustomize.py, which says why and what it saves) in every Python
+# process the run starts: test workers, lab kernels, the contract sweep. The folder goes
+# on `PYTHONPATH` only where it shadows no sitecustomize of the interpreter's own.
+_GC_STARTUP = pathlib.Path(__file__).resolve().parent / "_gc_startup"
+
+
+def _use_gc_startup() -> None:
+    import gc
+    import importlib.util
+
+    gc.set_threshold(50_000, 10, 10)
+    spec = importlib.util.find_spec("sitecustomize")
+    if spec is not None and pathlib.Path(spec.origin or "").parent != _GC_STARTUP:
+        return
+    paths = os.environ.get("PYTHONPATH", "").split(os.pathsep)
+    if str(_GC_STARTUP) not in paths:
+        os.environ["PYTHONPATH"] = os.pathsep.join([str(_GC_STARTUP), *filter(None, paths)])
+
+
+_use_gc_startup()
+# The reference libraries' OpenBLAS would start a thread per core, which spin after each
+# call: on two cores shared by three test workers they only take CPU from the others
+# (2 % of a worker's CPU time in `blas_thread_server`). The workers and the children
+# start with it.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 # The suite's time is mostly XLA compiling small programs that run once. XLA's legacy
 # CPU emitters with LLVM at -O0 compile them in about half the time of the default
